@@ -1,0 +1,36 @@
+# Two commands for a newcomer (see README):
+#   make demo   set up the venv (first time) and run the dressed, walking character
+#   make test   set up the venv (first time) and run the test suite
+PYTHON ?= python3.11
+VENV   ?= .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.installed
+DURATION ?= 20
+BVH ?=
+
+.PHONY: venv demo test bench clean
+
+venv: $(STAMP)
+
+# Re-run when the pins or the package metadata change; otherwise the venv is reused.
+$(STAMP): requirements.txt setup.py package.xml tools/build_tf2_msgs.sh
+	@test -x "$$(command -v $(PYTHON))" || { echo "error: $(PYTHON) not found; set PYTHON=/path/to/python3.11"; exit 1; }
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -r requirements.txt
+	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e .
+	VENV=$(VENV) bash tools/build_tf2_msgs.sh
+	$(PY) -c "import rclpy, tf2_msgs.msg, visualization_msgs.msg, numba, rerun; print('venv ready:', rclpy.__name__, numba.__version__, rerun.__version__)"
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(VENV)/bin/garment-sim demo --duration $(DURATION) $(if $(BVH),--bvh $(BVH),)
+
+test: $(STAMP)
+	$(PY) -m pytest -q test
+
+bench: $(STAMP)
+	$(VENV)/bin/garment-sim table1 --json
+
+clean:
+	rm -rf $(VENV) out build *.egg-info

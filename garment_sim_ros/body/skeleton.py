@@ -1,0 +1,70 @@
+"""Skeleton topology and posed skeletons, the common currency of every motion source.
+
+A ``Skeleton`` is the joint tree; a ``SkeletonPose`` is that tree posed in the fixed (world)
+frame: z up, metres (REP-103). Motion sources (BVH player, procedural walker, the /tf pose
+buffer) all produce ``SkeletonPose`` objects.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..transforms import quat_multiply, quat_rotate
+
+
+@dataclass(frozen=True)
+class Skeleton:
+    """Joint tree. ``parents[i] < i`` (topological order); ``-1`` marks the root."""
+
+    names: tuple[str, ...]
+    parents: tuple[int, ...]
+
+    def __post_init__(self):
+        if len(self.names) != len(self.parents):
+            raise ValueError("Skeleton: names and parents differ in length")
+        if len(set(self.names)) != len(self.names):
+            raise ValueError("Skeleton: joint names must be unique")
+        for i, p in enumerate(self.parents):
+            if not -1 <= p < i:
+                raise ValueError(f"Skeleton: joint {self.names[i]!r} has parent index {p}, must be in [-1, {i})")
+
+    def index(self, name: str) -> int:
+        try:
+            return self.names.index(name)
+        except ValueError:
+            raise KeyError(f"unknown joint {name!r}; known: {', '.join(self.names)}") from None
+
+    def children(self, i: int) -> list[int]:
+        return [j for j, p in enumerate(self.parents) if p == i]
+
+
+@dataclass
+class SkeletonPose:
+    """A skeleton posed in the world frame: joint positions (J, 3) in metres, rotations (J, 4) xyzw."""
+
+    skeleton: Skeleton
+    positions: np.ndarray
+    rotations: np.ndarray
+
+    def frame(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        i = self.skeleton.index(name)
+        return self.positions[i], self.rotations[i]
+
+
+def forward_kinematics(
+    skeleton: Skeleton, local_positions: np.ndarray, local_rotations: np.ndarray
+) -> SkeletonPose:
+    """Compose local joint transforms (relative to the parent; the root's relative to the world)."""
+    count = len(skeleton.names)
+    positions = np.empty((count, 3))
+    rotations = np.empty((count, 4))
+    for i, parent in enumerate(skeleton.parents):
+        if parent < 0:
+            positions[i] = local_positions[i]
+            rotations[i] = local_rotations[i]
+        else:
+            positions[i] = positions[parent] + quat_rotate(rotations[parent], local_positions[i])
+            rotations[i] = quat_multiply(rotations[parent], local_rotations[i])
+    return SkeletonPose(skeleton, positions, rotations)

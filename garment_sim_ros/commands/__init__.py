@@ -1,0 +1,1 @@
+"""Sub-commands of the ``garment-sim`` command line; one module per command."""

@@ -1,0 +1,195 @@
+"""Every solver parameter in one place: name, default, unit, range, meaning.
+
+``PARAMETERS`` is the single table the solver, the ROS node (its parameter descriptors),
+the YAML loader and the README's parameter list are made from. ``SolverParams`` is the
+validated, immutable value object the solver reads; ``SolverParams.replace(**changes)``
+validates and returns a new one, raising ``ParameterError`` that names the parameter, the
+bad value and what is allowed.
+
+Presets: ``PRESETS["si"]`` (defaults, SI units) and ``PRESETS["memo"]``, the parameter set
+of the memo's experiments (§7: mass 20, gravity 0.5, spring 10000, damping 100, air 20,
+limit 1 %, friction 0.2, 6 iterations, 2 correction iterations, 0.04 s time step). The
+memo's "0.04 s time step" is read as the *frame* time, split into 6 substeps (the reading
+that is stable with explicit Euler; a 0.04 s substep with 6 per frame would simulate 0.24 s
+per frame, slower than the 31 fps it reports).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from typing import Any
+
+COLLISION_MODES = ("adaptive", "static", "dynamic")
+
+
+class ParameterError(ValueError):
+    """A parameter value was refused; the message names it and what is allowed."""
+
+
+@dataclass(frozen=True)
+class Param:
+    name: str
+    default: Any
+    unit: str
+    low: float | None
+    high: float | None
+    description: str
+    choices: tuple[str, ...] = ()
+
+    def check(self, value: Any) -> Any:
+        """Return the value normalised to the parameter's type, or raise ParameterError."""
+        expected = type(self.default)
+        if expected is str:
+            if not isinstance(value, str) or (self.choices and value not in self.choices):
+                raise ParameterError(f"{self.name}: got {value!r}; allowed: one of {', '.join(self.choices)}")
+            return value
+        if expected is tuple:
+            if not isinstance(value, (list, tuple)) or len(value) != len(self.default):
+                raise ParameterError(f"{self.name}: got {value!r}; allowed: a list of {len(self.default)} numbers ({self.unit})")
+            return tuple(self._check_number(v, float) for v in value)
+        return self._check_number(value, expected)
+
+    def _check_number(self, value: Any, kind: type) -> Any:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ParameterError(f"{self.name}: got {value!r} ({type(value).__name__}); allowed: {self.allowed()}")
+        if kind is int and not float(value).is_integer():
+            raise ParameterError(f"{self.name}: got {value!r}; allowed: a whole number, {self.allowed()}")
+        if not math.isfinite(value):
+            raise ParameterError(f"{self.name}: got {value!r}; allowed: a finite number, {self.allowed()}")
+        if (self.low is not None and value < self.low) or (self.high is not None and value > self.high):
+            raise ParameterError(f"{self.name}: got {value!r}; allowed: {self.allowed()}")
+        return kind(value)
+
+    def allowed(self) -> str:
+        if self.choices:
+            return "one of " + ", ".join(self.choices)
+        unit = f" {self.unit}" if self.unit and self.unit != "1" else ""
+        return f"[{self.low}, {self.high}]{unit}"
+
+
+PARAMETERS: tuple[Param, ...] = (
+    # time stepping (memo §3)
+    Param("substep", 0.005, "s", 1e-5, 0.1,
+          "fixed substep h; a frame of length dt runs ceil(dt/h) substeps of dt/n (<= h)"),
+    Param("max_substeps", 8, "1", 1, 200,
+          "IC_max: at most this many substeps per frame; past it the garment lags real time (reported)"),
+    Param("correction_iterations", 4, "1", 0, 200,
+          "Provot length-correction iterations per substep (contacts are handled after the first)"),
+    Param("limit_ratio", 0.01, "1", 0.0, 1.0,
+          "springs longer than (1 + limit_ratio) x rest length are shortened"),
+    # material
+    Param("areal_density", 0.15, "kg/m^2", 1e-4, 10.0,
+          "cloth mass per area; a point's mass is a third of its triangles' area times this"),
+    Param("point_mass", 0.0, "kg", 0.0, 1e3,
+          "if > 0, every point has this mass instead (the memo's uniform mass)"),
+    Param("stretch_stiffness", 100.0, "N/m", 0.0, 1e7, "structural (mesh edge) spring stiffness"),
+    Param("shear_stiffness", 20.0, "N/m", 0.0, 1e7, "shear spring stiffness (across a quad's diagonal)"),
+    Param("bend_stiffness", 2.0, "N/m", 0.0, 1e7, "bend spring stiffness (across two edges)"),
+    Param("stretch_damping", 0.02, "N*s/m", 0.0, 1e5, "structural spring damping along the spring"),
+    Param("shear_damping", 0.01, "N*s/m", 0.0, 1e5, "shear spring damping"),
+    Param("bend_damping", 0.002, "N*s/m", 0.0, 1e5, "bend spring damping"),
+    Param("stability_factor", 0.25, "1", 0.01, 1.0,
+          "springs are limited to k <= factor * m / h^2 and c <= 2 * factor * m / h (explicit Euler "
+          "stability); how many were limited is reported"),
+    # external forces
+    Param("gravity", (0.0, 0.0, -9.81), "m/s^2", -1e3, 1e3, "gravity, world frame"),
+    Param("air_damping", 0.6, "1/s", 0.0, 1e3,
+          "air resistance per unit mass: F = -m * air_damping * (v_world - wind) (memo: k_air / m)"),
+    Param("wind", (0.0, 0.0, 0.0), "m/s", -1e3, 1e3, "constant wind velocity, world frame"),
+    Param("gust_amplitude", 0.0, "m/s", 0.0, 1e3, "gust speed added along the wind direction (or +x)"),
+    Param("gust_frequency", 0.5, "Hz", 0.0, 100.0, "gust frequency; gusts follow a sum of two sines"),
+    # relative simulation (memo §4, plus rotation)
+    Param("linear_inertia_scale", 1.0, "1", 0.0, 1.0,
+          "how much of the root's linear acceleration/velocity the garment feels (1 physical, 0 carried rigidly)"),
+    Param("angular_inertia_scale", 1.0, "1", 0.0, 1.0,
+          "how much of the root's yaw rotation the garment feels (centrifugal, Coriolis, Euler forces)"),
+    Param("teleport_distance", 1.0, "m", 0.0, 1e6,
+          "a root jump longer than this within one frame carries the garment along rigidly (no inertia)"),
+    # collision (memo §6)
+    Param("friction", 0.2, "1", 0.0, 100.0, "k_f of the modified Coulomb law (memo Eq. 6-2)"),
+    Param("collision_epsilon", 0.003, "m", 0.0, 0.1, "points are put this far outside a volume's surface"),
+    Param("contact_time_fraction", 0.5, "1", 0.0, 1.0,
+          "c_time of memo Eq. 6-8: share of the step left after a hit that the point moves with the volume"),
+    Param("dynamic_switch_ratio", 0.125, "1", 0.0, 100.0,
+          "dynamic (swept) handling when the relative trajectory is longer than this x volume radius (memo: 1/8)"),
+    Param("collision_mode", "adaptive", "", None, None,
+          "adaptive (memo §6.2.1), static only or dynamic only", COLLISION_MODES),
+)
+
+PARAMETER_TABLE = {p.name: p for p in PARAMETERS}
+
+
+@dataclass(frozen=True)
+class SolverParams:
+    substep: float
+    max_substeps: int
+    correction_iterations: int
+    limit_ratio: float
+    areal_density: float
+    point_mass: float
+    stretch_stiffness: float
+    shear_stiffness: float
+    bend_stiffness: float
+    stretch_damping: float
+    shear_damping: float
+    bend_damping: float
+    stability_factor: float
+    gravity: tuple[float, float, float]
+    air_damping: float
+    wind: tuple[float, float, float]
+    gust_amplitude: float
+    gust_frequency: float
+    linear_inertia_scale: float
+    angular_inertia_scale: float
+    teleport_distance: float
+    friction: float
+    collision_epsilon: float
+    contact_time_fraction: float
+    dynamic_switch_ratio: float
+    collision_mode: str
+
+    def __post_init__(self):
+        for f in fields(self):
+            object.__setattr__(self, f.name, PARAMETER_TABLE[f.name].check(getattr(self, f.name)))
+
+    def replace(self, **changes: Any) -> "SolverParams":
+        unknown = sorted(set(changes) - set(PARAMETER_TABLE))
+        if unknown:
+            raise ParameterError(f"unknown parameter(s) {', '.join(unknown)}; known: {', '.join(PARAMETER_TABLE)}")
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        values.update(changes)
+        return SolverParams(**values)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+DEFAULT_PARAMS = SolverParams(**{p.name: p.default for p in PARAMETERS})
+
+PRESETS: dict[str, SolverParams] = {
+    "si": DEFAULT_PARAMS,
+    "memo": DEFAULT_PARAMS.replace(
+        point_mass=20.0,
+        gravity=(0.0, 0.0, -0.5),
+        stretch_stiffness=10000.0,
+        shear_stiffness=10000.0,
+        bend_stiffness=10000.0,
+        stretch_damping=100.0,
+        shear_damping=100.0,
+        bend_damping=100.0,
+        air_damping=20.0 / 20.0,  # air resistance 20 on a mass of 20
+        limit_ratio=0.01,
+        friction=0.2,
+        max_substeps=6,
+        correction_iterations=2,
+        substep=0.04 / 6,
+    ),
+}
+
+
+def preset(name: str) -> SolverParams:
+    try:
+        return PRESETS[name]
+    except KeyError:
+        raise ParameterError(f"unknown preset {name!r}; known: {', '.join(PRESETS)}") from None
