@@ -1,0 +1,203 @@
+"""Procedural garment meshes cut to a body's measurements.
+
+Every garment is built in the root frame of the rest pose (origin at the pelvis joint,
+x forward, y left, z up, metres) from rings of vertices: a ring is an ellipse at one
+height, consecutive rings are joined by quads split into two triangles. Triangles are
+wound counter-clockwise seen from outside, so their normals point away from the body.
+
+``resolution`` scales the vertex count along and around the garment linearly (so the mass
+point count grows with its square); 1.0 gives about the memo's sizes (§7, Table 1).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..body.measurements import STANDARD_BODY, BodyMeasurements
+
+GARMENT_NAMES = ("short_skirt", "long_skirt", "pants", "one_piece")
+MAX_RESOLUTION = 20.0
+_LEG_GAP = 0.004  # m between a trouser leg's inner side and the body's mid-plane
+
+
+@dataclass(frozen=True)
+class GarmentMesh:
+    name: str
+    vertices: np.ndarray  # (N, 3) rest positions, root frame, metres
+    triangles: np.ndarray  # (T, 3) vertex indices, counter-clockwise seen from outside
+    attachments: dict[str, np.ndarray]  # joint-map role -> vertex indices carried by that segment
+    rings: dict[str, list[np.ndarray]] = field(default_factory=dict)  # named vertex rings, top to bottom
+
+    def edges(self) -> np.ndarray:
+        """Unique undirected mesh edges (E, 2), smaller index first, sorted."""
+        t = self.triangles
+        pairs = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
+        pairs.sort(axis=1)
+        return np.unique(pairs, axis=0)
+
+
+def _ring(center_x: float, center_y: float, z: float, rx: float, ry: float, count: int, phase: float = 0.0):
+    angle = phase + 2.0 * np.pi * np.arange(count) / count
+    return np.stack([center_x + rx * np.cos(angle), center_y + ry * np.sin(angle), np.full(count, z)], axis=1)
+
+
+def _band(upper: np.ndarray, lower: np.ndarray) -> np.ndarray:
+    """Triangles joining two closed rings of equal length (indices, both counter-clockwise from above).
+
+    ``upper`` lies above ``lower``. Diagonals alternate so the mesh has no preferred shear direction.
+    """
+    n = len(upper)
+    j = np.arange(n)
+    a, b = upper[j], upper[(j + 1) % n]
+    c, d = lower[j], lower[(j + 1) % n]
+    even = (j % 2) == 0
+    # Quad a-b (top, CCW) over c-d (bottom). Outward normal = (d - c) x (a - c) direction for CCW rings.
+    first = np.where(even[:, None], np.stack([a, c, d], 1), np.stack([a, c, b], 1))
+    second = np.where(even[:, None], np.stack([a, d, b], 1), np.stack([b, c, d], 1))
+    return np.concatenate([first, second])
+
+
+def _tube(levels: list[tuple[float, float, float, float, float]], around: int):
+    """Vertices and triangles of a tube from (center_x, center_y, z, rx, ry) levels, top first."""
+    vertices = np.concatenate([_ring(cx, cy, z, rx, ry, around) for cx, cy, z, rx, ry in levels])
+    rings = [np.arange(i * around, (i + 1) * around) for i in range(len(levels))]
+    triangles = np.concatenate([_band(rings[i], rings[i + 1]) for i in range(len(rings) - 1)])
+    return vertices, triangles, rings
+
+
+def _profile(z_top: float, z_bottom: float, count: int, radii) -> list[tuple[float, float, float, float, float]]:
+    """``count`` levels from z_top to z_bottom; ``radii(z) -> (rx, ry)``."""
+    zs = np.linspace(z_top, z_bottom, count)
+    return [(0.0, 0.0, float(z), *map(float, radii(z))) for z in zs]
+
+
+def _interp_radii(points: list[tuple[float, float, float]]):
+    """Piecewise-linear (rx, ry) against z from (z, rx, ry) knots."""
+    knots = sorted(points)
+    zs = [p[0] for p in knots]
+    rxs = [p[1] for p in knots]
+    rys = [p[2] for p in knots]
+    return lambda z: (np.interp(z, zs, rxs), np.interp(z, zs, rys))
+
+
+def _counts(resolution: float, around: int, levels: int) -> tuple[int, int]:
+    if not (isinstance(resolution, (int, float)) and 0.25 <= resolution <= MAX_RESOLUTION):
+        raise ValueError(f"garment resolution must be a number in [0.25, {MAX_RESOLUTION}], got {resolution!r}")
+    return max(8, 2 * round(around * resolution / 2)), max(3, round(levels * resolution))
+
+
+def _skirt(name: str, body: BodyMeasurements, resolution: float, hem_z: float, flare: float,
+           around: int, levels: int) -> GarmentMesh:
+    ease = 0.012  # cloth stands this far off the body at the waist and hips
+    radii = _interp_radii([
+        (body.waist_z, body.waist_rx + ease, body.waist_ry + ease),
+        (body.hip_z, body.hip_rx + ease, body.hip_ry + ease),
+        (hem_z, (body.hip_rx + ease) * flare, (body.hip_ry + ease) * flare),
+    ])
+    n_around, n_levels = _counts(resolution, around, levels)
+    vertices, triangles, rings = _tube(_profile(body.waist_z, hem_z, n_levels, radii), n_around)
+    return GarmentMesh(name, vertices, triangles, {"pelvis": rings[0]}, {"waistband": [rings[0]], "hem": [rings[-1]]})
+
+
+def short_skirt(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> GarmentMesh:
+    hem_z = body.crotch_z - 0.45 * (body.crotch_z - body.knee_z)  # mid-thigh
+    return _skirt("short_skirt", body, resolution, hem_z, flare=1.35, around=48, levels=8)
+
+
+def long_skirt(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> GarmentMesh:
+    hem_z = body.knee_z - 0.7 * (body.knee_z - body.ankle_z)  # lower calf
+    return _skirt("long_skirt", body, resolution, hem_z, flare=1.8, around=48, levels=13)
+
+
+def one_piece(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> GarmentMesh:
+    """A strapless one-piece dress from under the arms to below the knee; its top edge is carried by the chest."""
+    ease = 0.012
+    hem_z = body.knee_z - 0.15 * (body.knee_z - body.ankle_z)
+    radii = _interp_radii([
+        (body.chest_z, body.chest_rx + ease, body.chest_ry + ease),
+        (body.waist_z, body.waist_rx + ease, body.waist_ry + ease),
+        (body.hip_z, body.hip_rx + ease, body.hip_ry + ease),
+        (hem_z, (body.hip_rx + ease) * 1.45, (body.hip_ry + ease) * 1.45),
+    ])
+    n_around, n_levels = _counts(resolution, 48, 15)
+    vertices, triangles, rings = _tube(_profile(body.chest_z, hem_z, n_levels, radii), n_around)
+    waist_level = int(np.argmin([abs(v[2] - body.waist_z) for v in vertices[[r[0] for r in rings]]]))
+    return GarmentMesh("one_piece", vertices, triangles, {"chest": rings[0]},
+                       {"neckline": [rings[0]], "waist": [rings[waist_level]], "hem": [rings[-1]]})
+
+
+def pants(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> GarmentMesh:
+    """Trousers: a hip tube from the waist to the crotch that splits into two leg tubes.
+
+    The hip ring's front and back centre vertices, joined by a crotch seam of interior
+    vertices, start both legs: each leg's first ring is half of the hip ring plus the seam.
+    """
+    ease = 0.012
+    n_around, n_hip_levels = _counts(resolution, 32, 3)  # hip ring size, levels from waist to crotch
+    half = n_around // 2
+    seam = max(1, round(2 * resolution))  # interior crotch-seam vertices
+    leg_around = half + 1 + seam
+    n_leg_levels = max(3, round(14 * resolution))
+    hem_z = body.ankle_z + 0.05
+
+    hip_radii = _interp_radii([
+        (body.waist_z, body.waist_rx + ease, body.waist_ry + ease),
+        (body.hip_z, body.hip_rx + ease, body.hip_ry + ease),
+        (body.crotch_z, body.hip_rx + ease, body.hip_ry + ease),
+    ])
+    # Ring phase: index 0 at the front centre (+x), index `half` at the back centre.
+    hip_levels = _profile(body.waist_z, body.crotch_z, n_hip_levels, hip_radii)
+    vertices = [_ring(cx, cy, z, rx, ry, n_around) for cx, cy, z, rx, ry in hip_levels]
+    hip_rings = [np.arange(i * n_around, (i + 1) * n_around) for i in range(n_hip_levels)]
+    triangles = [_band(hip_rings[i], hip_rings[i + 1]) for i in range(n_hip_levels - 1)]
+    count = n_hip_levels * n_around
+
+    crotch = hip_rings[-1]
+    front, back = crotch[0], crotch[half]
+    crotch_z = hip_levels[-1][2]
+    rx_crotch = hip_levels[-1][3]
+    # Seam from back to front along x at the crotch height.
+    seam_x = np.linspace(-rx_crotch, rx_crotch, seam + 2)[1:-1]
+    vertices.append(np.stack([seam_x, np.zeros(seam), np.full(seam, crotch_z)], axis=1))
+    seam_ids = np.arange(count, count + seam)
+    count += seam
+
+    # Counter-clockwise (from above) leg rings: left leg = front -> left side -> back -> seam -> front.
+    left_top = np.concatenate([crotch[0:half + 1], seam_ids])
+    right_top = np.concatenate([crotch[half:], crotch[:1], seam_ids[::-1]])
+    leg_rings: dict[str, list[np.ndarray]] = {}
+    for side, sign, top in (("left", 1.0, left_top), ("right", -1.0, right_top)):
+        # Lower rings: circles about the leg axis, starting at the angle of the top ring's first vertex.
+        top_xy = np.concatenate(vertices)[top][:, :2]
+        start = np.arctan2(top_xy[0, 1] - sign * body.leg_y, top_xy[0, 0])
+        rings = [top]
+        for k in range(1, n_leg_levels + 1):
+            z = crotch_z + (hem_z - crotch_z) * k / n_leg_levels
+            radius = float(np.interp(z, [body.knee_z, crotch_z], [body.knee_radius, body.thigh_radius])) + 0.035
+            if z < body.knee_z:
+                radius = float(np.interp(z, [body.ankle_z, body.knee_z], [body.ankle_radius, body.knee_radius])) + 0.045
+            # The legs' inner sides must not cross the body's mid-plane into the other leg.
+            ry = min(radius, 0.5 * (body.leg_y + radius - _LEG_GAP))
+            centre_y = max(body.leg_y, _LEG_GAP + ry)
+            vertices.append(_ring(0.0, sign * centre_y, z, radius, ry, leg_around, phase=start))
+            rings.append(np.arange(count, count + leg_around))
+            count += leg_around
+        triangles.extend(_band(rings[i], rings[i + 1]) for i in range(len(rings) - 1))
+        leg_rings[f"{side}_leg"] = rings
+    return GarmentMesh(
+        "pants", np.concatenate(vertices), np.concatenate(triangles), {"pelvis": hip_rings[0]},
+        {"waistband": [hip_rings[0]], **leg_rings},
+    )
+
+
+TEMPLATES = {"short_skirt": short_skirt, "long_skirt": long_skirt, "pants": pants, "one_piece": one_piece}
+
+
+def build_garment(name: str, body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> GarmentMesh:
+    try:
+        template = TEMPLATES[name]
+    except KeyError:
+        raise ValueError(f"unknown garment {name!r}; known: {', '.join(GARMENT_NAMES)}") from None
+    return template(body, resolution)

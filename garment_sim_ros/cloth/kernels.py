@@ -1,0 +1,164 @@
+"""Numba kernels of the mass-spring solver (memo §5), over flat float64 arrays.
+
+Positions and velocities are in the simulation frame: the root frame, translating with the
+pelvis and turning with its heading (memo §4, extended to rotation about z).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def accumulate_forces(x, v, mass, springs, rest, stiffness, damping, uniform_accel, omega_z, alpha_z,
+                      drag_rate, frame_velocity, rotation_scale, forces):
+    """Total force on every point (memo Eq. 4-2 with the root's rotation, plus Provot springs).
+
+    Per point of mass m at x with frame-relative velocity v:
+      m * uniform_accel                                   gravity and the linear inertial force -m a0
+      - m * rotation_scale * (alpha x r + omega x (omega x r) + 2 omega x v)   Euler, centrifugal, Coriolis
+      - m * drag_rate * (v + frame_velocity + rotation_scale * omega x r)      air resistance, relative to air
+      + springs with damping along the spring.
+    ``frame_velocity`` is the root's scaled velocity minus the wind, both in the root frame.
+    """
+    n = x.shape[0]
+    for i in range(n):
+        m = mass[i]
+        rx, ry, rz = x[i, 0], x[i, 1], x[i, 2]
+        vx, vy, vz = v[i, 0], v[i, 1], v[i, 2]
+        # omega = (0, 0, w): omega x r = (-w ry, w rx, 0); omega x (omega x r) = (-w^2 rx, -w^2 ry, 0)
+        w = omega_z
+        fict_x = alpha_z * -ry - w * w * rx + 2.0 * (-w * vy)
+        fict_y = alpha_z * rx - w * w * ry + 2.0 * (w * vx)
+        spin_x = -w * ry
+        spin_y = w * rx
+        forces[i, 0] = m * (uniform_accel[0] - rotation_scale * fict_x
+                            - drag_rate * (vx + frame_velocity[0] + rotation_scale * spin_x))
+        forces[i, 1] = m * (uniform_accel[1] - rotation_scale * fict_y
+                            - drag_rate * (vy + frame_velocity[1] + rotation_scale * spin_y))
+        forces[i, 2] = m * (uniform_accel[2] - drag_rate * (vz + frame_velocity[2]))
+    for s in range(springs.shape[0]):
+        a = springs[s, 0]
+        b = springs[s, 1]
+        dx = x[b, 0] - x[a, 0]
+        dy = x[b, 1] - x[a, 1]
+        dz = x[b, 2] - x[a, 2]
+        length = np.sqrt(dx * dx + dy * dy + dz * dz)
+        if length < 1e-12:
+            continue
+        ux, uy, uz = dx / length, dy / length, dz / length
+        closing = (v[b, 0] - v[a, 0]) * ux + (v[b, 1] - v[a, 1]) * uy + (v[b, 2] - v[a, 2]) * uz
+        magnitude = stiffness[s] * (length - rest[s]) + damping[s] * closing
+        forces[a, 0] += magnitude * ux
+        forces[a, 1] += magnitude * uy
+        forces[a, 2] += magnitude * uz
+        forces[b, 0] -= magnitude * ux
+        forces[b, 1] -= magnitude * uy
+        forces[b, 2] -= magnitude * uz
+
+
+@njit(cache=True)
+def integrate(x, v, forces, inv_mass, h, x_start):
+    """Explicit step: ``x_start = x``; ``x += (v + F/m h) h`` for free points (see ``cloth.solver`` on Eq. 5-1)."""
+    for i in range(x.shape[0]):
+        x_start[i, 0] = x[i, 0]
+        x_start[i, 1] = x[i, 1]
+        x_start[i, 2] = x[i, 2]
+        w = inv_mass[i]
+        if w == 0.0:
+            continue
+        x[i, 0] += (v[i, 0] + forces[i, 0] * w * h) * h
+        x[i, 1] += (v[i, 1] + forces[i, 1] * w * h) * h
+        x[i, 2] += (v[i, 2] + forces[i, 2] * w * h) * h
+
+
+@njit(cache=True)
+def length_correction(x, inv_mass, springs, rest, count, limit_ratio):
+    """One Provot iteration over the first ``count`` springs: shorten every spring longer than
+    ``(1 + limit_ratio) * rest`` back to that length, moving both ends by their inverse masses.
+    Returns the largest stretch ratio seen (length / rest) before correction."""
+    worst = 0.0
+    for s in range(count):
+        a = springs[s, 0]
+        b = springs[s, 1]
+        dx = x[b, 0] - x[a, 0]
+        dy = x[b, 1] - x[a, 1]
+        dz = x[b, 2] - x[a, 2]
+        length = np.sqrt(dx * dx + dy * dy + dz * dz)
+        ratio = length / rest[s]
+        if ratio > worst:
+            worst = ratio
+        limit = (1.0 + limit_ratio) * rest[s]
+        if length <= limit:
+            continue
+        wa = inv_mass[a]
+        wb = inv_mass[b]
+        total = wa + wb
+        if total == 0.0:
+            continue
+        scale = (length - limit) / (length * total)
+        x[a, 0] += wa * scale * dx
+        x[a, 1] += wa * scale * dy
+        x[a, 2] += wa * scale * dz
+        x[b, 0] -= wb * scale * dx
+        x[b, 1] -= wb * scale * dy
+        x[b, 2] -= wb * scale * dz
+    return worst
+
+
+@njit(cache=True)
+def velocities_from_positions(x, x_start, h, v):
+    """Memo Eq. 5-2: ``v = (x_corrected - x_start) / h``."""
+    inv_h = 1.0 / h
+    for i in range(x.shape[0]):
+        v[i, 0] = (x[i, 0] - x_start[i, 0]) * inv_h
+        v[i, 1] = (x[i, 1] - x_start[i, 1]) * inv_h
+        v[i, 2] = (x[i, 2] - x_start[i, 2]) * inv_h
+
+
+@njit(cache=True)
+def set_attached(x, attached, targets):
+    for k in range(attached.shape[0]):
+        i = attached[k]
+        x[i, 0] = targets[k, 0]
+        x[i, 1] = targets[k, 1]
+        x[i, 2] = targets[k, 2]
+
+
+@njit(cache=True)
+def max_stretch(x, springs, rest, count):
+    worst = 0.0
+    for s in range(count):
+        a = springs[s, 0]
+        b = springs[s, 1]
+        dx = x[b, 0] - x[a, 0]
+        dy = x[b, 1] - x[a, 1]
+        dz = x[b, 2] - x[a, 2]
+        ratio = np.sqrt(dx * dx + dy * dy + dz * dz) / rest[s]
+        if ratio > worst:
+            worst = ratio
+    return worst
+
+
+@njit(cache=True)
+def vertex_normals(x, triangles, normals):
+    """Area-weighted unit vertex normals."""
+    normals[:] = 0.0
+    for t in range(triangles.shape[0]):
+        a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+        e1x, e1y, e1z = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1], x[b, 2] - x[a, 2]
+        e2x, e2y, e2z = x[c, 0] - x[a, 0], x[c, 1] - x[a, 1], x[c, 2] - x[a, 2]
+        nx = e1y * e2z - e1z * e2y
+        ny = e1z * e2x - e1x * e2z
+        nz = e1x * e2y - e1y * e2x
+        for k in (a, b, c):
+            normals[k, 0] += nx
+            normals[k, 1] += ny
+            normals[k, 2] += nz
+    for i in range(normals.shape[0]):
+        length = np.sqrt(normals[i, 0] ** 2 + normals[i, 1] ** 2 + normals[i, 2] ** 2)
+        if length > 0.0:
+            normals[i, 0] /= length
+            normals[i, 1] /= length
+            normals[i, 2] /= length

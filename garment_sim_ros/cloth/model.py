@@ -1,0 +1,152 @@
+"""The garment's constants (Warp's ``Model`` / MuJoCo's ``mjModel``): mesh, springs, areas, attachments.
+
+Built once from a ``GarmentMesh``; never changes while simulating. Parameter-dependent
+arrays (masses, stiffnesses) are derived from it by ``cloth.solver`` whenever parameters change.
+
+Springs after Provot: *structural* springs are the mesh edges (what the memo counts as
+springs); *shear* springs join the two vertices opposite an interior edge (the other
+diagonal of a quad split into triangles, or across a grid line); *bend* springs join a
+vertex to the vertex two edges away along the straightest continuation. Provot's length
+correction acts on structural and shear springs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..transforms import inverse, transform_points
+from .garments import GarmentMesh
+
+STRUCTURAL, SHEAR, BEND = 0, 1, 2
+SPRING_KIND_NAMES = ("structural", "shear", "bend")
+_STRAIGHT_COS = 0.8  # a bend spring continues an edge within ~37 degrees
+
+
+@dataclass(frozen=True)
+class ClothModel:
+    name: str
+    rest_positions: np.ndarray  # (N, 3) root frame of the rest pose, m
+    triangles: np.ndarray  # (T, 3) int64
+    edges: np.ndarray  # (E, 2) mesh edges
+    springs: np.ndarray  # (S, 2) int64, structural first, then shear, then bend
+    spring_kinds: np.ndarray  # (S,) int64
+    rest_lengths: np.ndarray  # (S,) m
+    vertex_areas: np.ndarray  # (N,) a third of the adjacent triangles' areas, m^2
+    attached: np.ndarray  # (A,) vertex indices carried kinematically
+    attachment_frames: tuple[str, ...]  # joint-map roles the attached vertices follow
+    attachment_frame_index: np.ndarray  # (A,) index into attachment_frames
+    attachment_local: np.ndarray  # (A, 3) coordinates in the attachment frame, m
+    rings: dict
+
+    @property
+    def num_points(self) -> int:
+        return len(self.rest_positions)
+
+    @property
+    def num_correction_springs(self) -> int:
+        """Springs subject to length correction: they come first (structural, then shear)."""
+        return int(np.count_nonzero(self.spring_kinds != BEND))
+
+    def spring_counts(self) -> dict[str, int]:
+        return {name: int(np.count_nonzero(self.spring_kinds == k)) for k, name in enumerate(SPRING_KIND_NAMES)}
+
+
+def _shear_pairs(triangles: np.ndarray) -> np.ndarray:
+    """For every edge shared by two triangles, the pair of vertices opposite it."""
+    tri_edges = np.concatenate([triangles[:, [0, 1, 2]], triangles[:, [1, 2, 0]], triangles[:, [2, 0, 1]]])
+    keys = np.sort(tri_edges[:, :2], axis=1)
+    order = np.lexsort((keys[:, 1], keys[:, 0]))
+    keys, opposite = keys[order], tri_edges[order, 2]
+    same = np.all(keys[1:] == keys[:-1], axis=1)
+    first = np.nonzero(same)[0]
+    pairs = np.stack([opposite[first], opposite[first + 1]], axis=1)
+    return pairs[pairs[:, 0] != pairs[:, 1]]
+
+
+def _bend_pairs(positions: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Vertex pairs two edges apart along the straightest continuation through the middle vertex."""
+    n = len(positions)
+    directed = np.concatenate([edges, edges[:, ::-1]])  # (a -> b)
+    order = np.argsort(directed[:, 0], kind="stable")
+    directed = directed[order]
+    start = np.searchsorted(directed[:, 0], np.arange(n + 1))
+    pairs = []
+    for a, b in directed:
+        incoming = positions[b] - positions[a]
+        incoming /= np.linalg.norm(incoming)
+        candidates = directed[start[b]:start[b + 1], 1]
+        candidates = candidates[candidates != a]
+        if len(candidates) == 0:
+            continue
+        outgoing = positions[candidates] - positions[b]
+        outgoing /= np.linalg.norm(outgoing, axis=1, keepdims=True)
+        cos = outgoing @ incoming
+        best = int(np.argmax(cos))
+        if cos[best] >= _STRAIGHT_COS:
+            pairs.append((a, candidates[best]))
+    return np.array(pairs, dtype=np.int64).reshape(-1, 2)
+
+
+def _unique_new(pairs: np.ndarray, existing: set) -> np.ndarray:
+    pairs = np.sort(pairs, axis=1)
+    pairs = np.unique(pairs, axis=0) if len(pairs) else pairs
+    keep = [tuple(p) not in existing for p in pairs]
+    return pairs[np.array(keep, dtype=bool)] if len(pairs) else pairs
+
+
+def triangle_areas(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    p = positions[triangles]
+    return 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+
+
+def build_cloth_model(mesh: GarmentMesh, attachment_rest_poses: dict[str, tuple[np.ndarray, np.ndarray]] | None = None
+                      ) -> ClothModel:
+    """Model of ``mesh``. ``attachment_rest_poses`` maps each role in ``mesh.attachments`` to that
+    segment's rest pose (position, xyzw) in the root frame; identity (the root itself) when absent."""
+    positions = np.asarray(mesh.vertices, dtype=float)
+    triangles = np.asarray(mesh.triangles, dtype=np.int64)
+    edges = mesh.edges().astype(np.int64)
+    existing = {tuple(e) for e in edges}
+    shear = _unique_new(_shear_pairs(triangles), existing)
+    existing |= {tuple(p) for p in shear}
+    bend = _unique_new(_bend_pairs(positions, edges), existing)
+    springs = np.concatenate([edges, shear, bend]).astype(np.int64)
+    kinds = np.concatenate([np.full(len(edges), STRUCTURAL), np.full(len(shear), SHEAR), np.full(len(bend), BEND)])
+    rest = np.linalg.norm(positions[springs[:, 1]] - positions[springs[:, 0]], axis=1)
+    if np.any(rest <= 1e-9):
+        raise ValueError(f"garment {mesh.name!r}: a spring has zero rest length (duplicate vertices)")
+
+    areas = triangle_areas(positions, triangles)
+    if np.any(areas <= 1e-12):
+        raise ValueError(f"garment {mesh.name!r}: {int(np.sum(areas <= 1e-12))} degenerate triangle(s)")
+    vertex_areas = np.zeros(len(positions))
+    for corner in range(3):
+        np.add.at(vertex_areas, triangles[:, corner], areas / 3.0)
+
+    poses = attachment_rest_poses or {}
+    roles = tuple(mesh.attachments)
+    attached, frame_index, local = [], [], []
+    for k, role in enumerate(roles):
+        ids = np.asarray(mesh.attachments[role], dtype=np.int64)
+        p, q = poses.get(role, (np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0])))
+        ip, iq = inverse(np.asarray(p, float), np.asarray(q, float))
+        attached.append(ids)
+        frame_index.append(np.full(len(ids), k, dtype=np.int64))
+        local.append(transform_points(ip, iq, positions[ids]))
+    return ClothModel(
+        name=mesh.name,
+        rest_positions=positions,
+        triangles=triangles,
+        edges=edges,
+        springs=springs,
+        spring_kinds=kinds.astype(np.int64),
+        rest_lengths=rest,
+        vertex_areas=vertex_areas,
+        attached=np.concatenate(attached) if attached else np.zeros(0, np.int64),
+        attachment_frames=roles,
+        attachment_frame_index=np.concatenate(frame_index) if frame_index else np.zeros(0, np.int64),
+        attachment_local=np.concatenate(local) if local else np.zeros((0, 3)),
+        rings=dict(mesh.rings),
+    )

@@ -1,0 +1,290 @@
+"""The relative garment solver (memo §3–§5): ``GarmentSolver.advance(FrameInput)`` runs one frame.
+
+The garment lives in the *simulation frame*: the root frame (pelvis position, heading about
+z; see ``body.root``). The memo simulates in a frame that follows the root's translation and
+adds the inertial force ``-m a0`` and the drag of the character's own travel (Eq. 4-2); here
+the frame also turns with the heading, which adds the Euler, centrifugal and Coriolis forces
+(the memo's future work). ``linear_inertia_scale`` and ``angular_inertia_scale`` (0..1) scale
+how much of the root's motion the garment feels, as NvCloth and Unity expose it. Because the
+state is stored relative to the root, the memo's final step (translate every point by the
+root's displacement ``dx``) is the conversion to world coordinates in ``world_positions``,
+using the root's actual pose rather than the estimate ``v0 dt + a0 dt^2 / 2``.
+
+Integration. The memo's Eq. 5-1 (``x += v h + F/(2m) h^2``) combined literally with Eq. 5-2
+(``v = (x_corrected - x_start) / h``) only ever adds half of ``F/m h`` to the velocity: a free
+fall accelerates at g/2. We keep Eq. 5-2 and advance positions by symplectic Euler,
+``x += (v + F/m h) h``, for which an unconstrained point gets exactly ``v += F/m h`` and a point
+held still by the length correction or a contact ends the step with zero velocity.
+
+Per substep (memo §3 steps 2–5): forces, explicit step, attached points set to their
+segment, Provot length correction with contact handling after its first iteration, velocity
+from the corrected positions, full collision handling.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..params import DEFAULT_PARAMS, SolverParams
+from ..transforms import compose, inverse, quat_rotate, transform_points, yaw_quat
+from . import kernels
+from .model import BEND, SHEAR, STRUCTURAL, ClothModel
+
+
+@dataclass
+class ClothState:
+    """What changes every step (Warp's ``State``)."""
+
+    positions: np.ndarray  # (N, 3) simulation (root) frame, m
+    velocities: np.ndarray  # (N, 3) relative to the simulation frame, m/s
+    time: float = 0.0  # body time of the last frame, s
+    lag: float = 0.0  # how far the simulated time is behind the body's time, s
+
+
+@dataclass(frozen=True)
+class FrameInput:
+    """The character between two frames (Warp's ``Control``); world frame, SI units.
+
+    ``frame_positions*``/``frame_rotations*`` are the poses of ``GarmentSolver.frames``, in that order.
+    """
+
+    t0: float
+    t1: float
+    root_position0: np.ndarray
+    root_yaw0: float
+    root_position1: np.ndarray
+    root_yaw1: float
+    root_velocity: np.ndarray  # v0 at t0, m/s
+    root_acceleration: np.ndarray  # a0, m/s^2
+    yaw_rate: float  # rad/s at t0
+    yaw_acceleration: float  # rad/s^2
+    frame_positions0: np.ndarray
+    frame_rotations0: np.ndarray
+    frame_positions1: np.ndarray
+    frame_rotations1: np.ndarray
+
+
+@dataclass
+class FrameReport:
+    substeps: int = 0
+    substep_s: float = 0.0
+    simulated_s: float = 0.0
+    lag_s: float = 0.0
+    teleported: bool = False
+    integration_s: float = 0.0  # forces + explicit step + velocities (wall time)
+    correction_s: float = 0.0  # Provot length correction (wall time)
+    collision_s: float = 0.0  # contact + full collision handling (wall time)
+    static_hits: int = 0
+    dynamic_hits: int = 0
+    max_stretch: float = 0.0  # largest structural/shear length / rest length after the frame
+    extra: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class DerivedConstants:
+    """Parameter-dependent arrays (recomputed when parameters change)."""
+
+    mass: np.ndarray
+    inv_mass: np.ndarray
+    stiffness: np.ndarray
+    damping: np.ndarray
+    limited_springs: int  # springs whose stiffness or damping was capped for stability
+
+
+def derive_constants(model: ClothModel, params: SolverParams) -> DerivedConstants:
+    if params.point_mass > 0.0:
+        mass = np.full(model.num_points, params.point_mass)
+    else:
+        mass = params.areal_density * model.vertex_areas
+    inv_mass = 1.0 / mass
+    inv_mass[model.attached] = 0.0
+    by_kind = {
+        STRUCTURAL: (params.stretch_stiffness, params.stretch_damping),
+        SHEAR: (params.shear_stiffness, params.shear_damping),
+        BEND: (params.bend_stiffness, params.bend_damping),
+    }
+    stiffness = np.array([by_kind[k][0] for k in range(3)])[model.spring_kinds]
+    damping = np.array([by_kind[k][1] for k in range(3)])[model.spring_kinds]
+    # Explicit Euler on a spring between masses m_a, m_b is stable for k h^2 / m_min below ~1; the
+    # factor keeps a margin for points with several springs. Capped springs are counted and reported.
+    lighter = np.minimum(mass[model.springs[:, 0]], mass[model.springs[:, 1]])
+    h = params.substep
+    k_max = params.stability_factor * lighter / h**2
+    c_max = 2.0 * params.stability_factor * lighter / h
+    limited = (stiffness > k_max) | (damping > c_max)
+    return DerivedConstants(mass, inv_mass, np.minimum(stiffness, k_max), np.minimum(damping, c_max),
+                            int(np.count_nonzero(limited)))
+
+
+def substep_plan(dt: float, params: SolverParams) -> tuple[int, float]:
+    """Substeps for a frame of ``dt`` seconds: ``ceil(dt / h)`` equal substeps (each <= h), at most
+    ``max_substeps`` (memo's IC_max); when capped, substeps of ``h`` and the garment lags."""
+    needed = max(1, math.ceil(dt / params.substep - 1e-9))
+    if needed <= params.max_substeps:
+        return needed, dt / needed
+    return params.max_substeps, params.substep
+
+
+def wind_velocity(params: SolverParams, t: float) -> np.ndarray:
+    """Constant wind plus gusts along the wind direction (or +x): two incommensurate sines."""
+    wind = np.asarray(params.wind, dtype=float)
+    if params.gust_amplitude == 0.0:
+        return wind
+    speed = np.linalg.norm(wind)
+    direction = wind / speed if speed > 0.0 else np.array([1.0, 0.0, 0.0])
+    phase = 2.0 * np.pi * params.gust_frequency * t
+    gust = 0.6 * np.sin(phase) + 0.4 * np.sin(2.3 * phase + 1.3)
+    return wind + params.gust_amplitude * gust * direction
+
+
+def relative_frame_forces(params: SolverParams, yaw: float, root_velocity: np.ndarray,
+                          root_acceleration: np.ndarray, wind: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Uniform parts of memo Eq. 4-2 in the simulation frame, per unit mass.
+
+    Returns ``uniform_accel = g - s_lin a0`` and ``frame_velocity = s_lin v_root - wind`` (the drag
+    then is ``-k (v_rel + frame_velocity + s_ang omega x r)``), all rotated into the root frame.
+    """
+    to_local = yaw_quat(-yaw)
+    s = params.linear_inertia_scale
+    uniform = quat_rotate(to_local, np.asarray(params.gravity) - s * np.asarray(root_acceleration))
+    frame_velocity = quat_rotate(to_local, s * np.asarray(root_velocity) - wind)
+    return uniform, frame_velocity
+
+
+class GarmentSolver:
+    """Advances one garment on one character. ``frames`` lists the skeleton frames it needs."""
+
+    def __init__(self, model: ClothModel, volumes=None, params: SolverParams = DEFAULT_PARAMS,
+                 attachment_frame_names: tuple[str, ...] | None = None):
+        self.model = model
+        self.volumes = volumes
+        names = tuple(attachment_frame_names or model.attachment_frames)
+        if len(names) != len(model.attachment_frames):
+            raise ValueError(f"{len(names)} attachment frame names for {len(model.attachment_frames)} attachments")
+        frames = list(volumes.frames) if volumes is not None else []
+        frames += [n for n in names if n not in frames]
+        self.frames: tuple[str, ...] = tuple(frames)
+        self._attach_frame = np.array([frames.index(n) for n in names], dtype=np.int64)[model.attachment_frame_index]
+        n = model.num_points
+        self._x_start = np.zeros((n, 3))
+        self._forces = np.zeros((n, 3))
+        self._correct_count = model.num_correction_springs
+        self.collider = None
+        if volumes is not None and len(volumes):
+            from ..collision.collider import Collider
+
+            self.collider = Collider(volumes, n)
+        self.state = ClothState(model.rest_positions.copy(), np.zeros((n, 3)))
+        self.set_params(params)
+
+    def set_params(self, params: SolverParams) -> None:
+        self.params = params
+        self.constants = derive_constants(self.model, params)
+        if self.collider is not None:
+            self.collider.set_params(params)
+
+    # -- poses -------------------------------------------------------------------------------
+    def _attachment_targets(self, root_position, root_yaw, frame_positions, frame_rotations) -> np.ndarray:
+        """Where the attached points belong, in the simulation frame."""
+        fp = np.asarray(frame_positions, float)[self._attach_frame]
+        fq = np.asarray(frame_rotations, float)[self._attach_frame]
+        world = fp + quat_rotate(fq, self.model.attachment_local)
+        ip, iq = inverse(np.asarray(root_position, float), yaw_quat(root_yaw))
+        return transform_points(ip, iq, world)
+
+    def _local_volume_poses(self, root_position, root_yaw, frame_positions, frame_rotations):
+        # ``self.frames`` starts with ``volumes.frames``, in their order.
+        count = len(self.volumes.frames)
+        wp, wq = self.volumes.world_poses(np.asarray(frame_positions, float)[:count],
+                                          np.asarray(frame_rotations, float)[:count])
+        ip, iq = inverse(np.asarray(root_position, float), yaw_quat(root_yaw))
+        return compose(ip, iq, wp, wq)
+
+    def reset(self, root_position, root_yaw, frame_positions, frame_rotations, time_s: float = 0.0) -> None:
+        """Put the garment at its rest shape around the root, attached points on their segments."""
+        x = self.model.rest_positions.copy()
+        x[self.model.attached] = self._attachment_targets(root_position, root_yaw, frame_positions, frame_rotations)
+        self.state = ClothState(x, np.zeros_like(x), time=time_s)
+
+    def world_positions(self, root_position, root_yaw) -> np.ndarray:
+        return transform_points(np.asarray(root_position, float), yaw_quat(root_yaw), self.state.positions)
+
+    # -- the frame ---------------------------------------------------------------------------
+    def advance(self, frame: FrameInput) -> FrameReport:
+        params, const, model, state = self.params, self.constants, self.model, self.state
+        dt = float(frame.t1 - frame.t0)
+        if not dt > 0.0:
+            raise ValueError(f"advance: frame end {frame.t1} must be after its start {frame.t0}")
+        count, h = substep_plan(dt, params)
+        report = FrameReport(substeps=count, substep_s=h, simulated_s=count * h)
+        state.lag += dt - count * h
+        report.lag_s = state.lag
+
+        jump = float(np.linalg.norm(np.asarray(frame.root_position1) - np.asarray(frame.root_position0)))
+        teleported = jump > params.teleport_distance
+        report.teleported = teleported
+        v0 = np.zeros(3) if teleported else np.asarray(frame.root_velocity, float)
+        a0 = np.zeros(3) if teleported else np.asarray(frame.root_acceleration, float)
+        yaw_rate = 0.0 if teleported else float(frame.yaw_rate)
+        yaw_acc = 0.0 if teleported else float(frame.yaw_acceleration)
+        yaw_step = math.remainder(frame.root_yaw1 - frame.root_yaw0, 2.0 * math.pi)
+
+        targets0 = self._attachment_targets(frame.root_position0, frame.root_yaw0,
+                                            frame.frame_positions0, frame.frame_rotations0)
+        targets1 = self._attachment_targets(frame.root_position1, frame.root_yaw1,
+                                            frame.frame_positions1, frame.frame_rotations1)
+        collider = self.collider
+        if collider is not None:
+            collider.begin_frame(
+                *self._local_volume_poses(frame.root_position0, frame.root_yaw0,
+                                          frame.frame_positions0, frame.frame_rotations0),
+                *self._local_volume_poses(frame.root_position1, frame.root_yaw1,
+                                          frame.frame_positions1, frame.frame_rotations1),
+            )
+        x, v = state.positions, state.velocities
+        clock = time.perf_counter
+        for k in range(count):
+            f0, f1 = k / count, (k + 1) / count
+            mid = 0.5 * (f0 + f1) * dt  # body time since t0 at the substep's middle
+            tic = clock()
+            uniform, frame_velocity = relative_frame_forces(
+                params, frame.root_yaw0 + yaw_step * 0.5 * (f0 + f1), v0 + a0 * mid, a0,
+                wind_velocity(params, frame.t0 + mid))
+            kernels.accumulate_forces(
+                x, v, const.mass, model.springs, model.rest_lengths, const.stiffness, const.damping,
+                uniform, yaw_rate + yaw_acc * mid, yaw_acc, params.air_damping, frame_velocity,
+                params.angular_inertia_scale, self._forces)
+            kernels.integrate(x, v, self._forces, const.inv_mass, h, self._x_start)
+            kernels.set_attached(x, model.attached, targets0 + f1 * (targets1 - targets0))
+            tac = clock()
+            report.integration_s += tac - tic
+            if collider is not None:
+                collider.begin_substep(f0, f1)
+            for iteration in range(max(1, params.correction_iterations)):
+                if iteration < params.correction_iterations:
+                    tic = clock()
+                    kernels.length_correction(x, const.inv_mass, model.springs, model.rest_lengths,
+                                              self._correct_count, params.limit_ratio)
+                    report.correction_s += clock() - tic
+                if iteration == 0 and collider is not None:
+                    tic = clock()
+                    collider.handle_contacts(x, v, const.inv_mass)
+                    report.collision_s += clock() - tic
+            tic = clock()
+            kernels.velocities_from_positions(x, self._x_start, h, v)
+            tac = clock()
+            report.integration_s += tac - tic
+            if collider is not None:
+                collider.handle_all(self._x_start, x, v, const.inv_mass, h)
+                report.collision_s += clock() - tac
+        if collider is not None:
+            report.static_hits = collider.static_hits
+            report.dynamic_hits = collider.dynamic_hits
+        report.max_stretch = kernels.max_stretch(x, model.springs, model.rest_lengths, self._correct_count)
+        state.time = frame.t1
+        return report
+
