@@ -42,7 +42,8 @@ SUMMARIES = {
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="garment-sim", description=__doc__.splitlines()[0].strip("`"))
+    parser = argparse.ArgumentParser(
+        prog="garment-sim", description="Real-time garment simulation on a moving character: demo, experiments, benchmarks.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMANDS:
         sub.add_parser(name, help=SUMMARIES[name], add_help=False)
@@ -64,7 +65,11 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog=f"garment-sim {name}", description=module.HELP)
     module.add_arguments(parser)
     args = parser.parse_args(rest)
-    return int(module.run(args) or 0)
+    try:
+        return int(module.run(args) or 0)
+    except (ValueError, OSError) as error:  # bad input or parameters: a message, not a traceback
+        print(f"garment-sim {name}: error: {error}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

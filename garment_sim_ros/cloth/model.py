@@ -68,25 +68,27 @@ def _shear_pairs(triangles: np.ndarray) -> np.ndarray:
 def _bend_pairs(positions: np.ndarray, edges: np.ndarray) -> np.ndarray:
     """Vertex pairs two edges apart along the straightest continuation through the middle vertex."""
     n = len(positions)
-    directed = np.concatenate([edges, edges[:, ::-1]])  # (a -> b)
-    order = np.argsort(directed[:, 0], kind="stable")
-    directed = directed[order]
+    directed = np.concatenate([edges, edges[:, ::-1]])  # a -> b
+    directed = directed[np.argsort(directed[:, 0], kind="stable")]
     start = np.searchsorted(directed[:, 0], np.arange(n + 1))
-    pairs = []
-    for a, b in directed:
-        incoming = positions[b] - positions[a]
-        incoming /= np.linalg.norm(incoming)
-        candidates = directed[start[b]:start[b + 1], 1]
-        candidates = candidates[candidates != a]
-        if len(candidates) == 0:
-            continue
-        outgoing = positions[candidates] - positions[b]
-        outgoing /= np.linalg.norm(outgoing, axis=1, keepdims=True)
-        cos = outgoing @ incoming
-        best = int(np.argmax(cos))
-        if cos[best] >= _STRAIGHT_COS:
-            pairs.append((a, candidates[best]))
-    return np.array(pairs, dtype=np.int64).reshape(-1, 2)
+    degree = np.diff(start)
+    # Every path a -> b -> c: for directed edge e = (a, b), the edges leaving b.
+    per_edge = degree[directed[:, 1]]
+    edge_id = np.repeat(np.arange(len(directed)), per_edge)
+    offset = np.arange(len(edge_id)) - np.repeat(np.cumsum(per_edge) - per_edge, per_edge)
+    a = directed[edge_id, 0]
+    b = directed[edge_id, 1]
+    c = directed[start[b] + offset, 1]
+    keep = c != a
+    edge_id, a, b, c = edge_id[keep], a[keep], b[keep], c[keep]
+    incoming = positions[b] - positions[a]
+    outgoing = positions[c] - positions[b]
+    cos = np.sum(incoming * outgoing, axis=1) / (
+        np.linalg.norm(incoming, axis=1) * np.linalg.norm(outgoing, axis=1))
+    order = np.lexsort((-cos, edge_id))  # best continuation first within each edge
+    first = order[np.r_[True, edge_id[order][1:] != edge_id[order][:-1]]]
+    best = first[cos[first] >= _STRAIGHT_COS]
+    return np.stack([a[best], c[best]], axis=1).astype(np.int64)
 
 
 def _unique_new(pairs: np.ndarray, existing: set) -> np.ndarray:

@@ -1,0 +1,175 @@
+"""A dressed character: one body, its bounding volumes, and the garments simulated on it (ROS-free).
+
+This is what the node, the command line and the benchmarks drive. Give it skeleton poses
+(``SkeletonPose``, world frame) with the root's motion, and it advances every garment:
+
+    character = DressedCharacter(body, ["pants"], params)
+    character.dress(first_pose, t0)             # fit the garments from the rest pose onto the first pose
+    reports = character.step(pose, motion, t)    # one frame per call
+
+Root motion (``RootMotion``) is the pelvis position, heading and their rates (memo §4: v0, a0).
+``motion_from_poses`` estimates it from a pose function by central differences, for motion
+sources that can be sampled at any time (BVH clips, the procedural character).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Sequence
+
+import numpy as np
+
+from .body.root import root_frame
+from .body.skeleton import SkeletonPose
+from .cloth.garments import build_garment
+from .cloth.model import build_cloth_model
+from .cloth.solver import FrameInput, FrameReport, GarmentSolver
+from .params import SolverParams
+from .transforms import compose, inverse, quat_slerp, yaw_quat
+
+
+@dataclass(frozen=True)
+class RootMotion:
+    """The root frame and its rates at one instant; world frame, SI."""
+
+    position: np.ndarray  # (3,) m
+    yaw: float  # rad
+    velocity: np.ndarray  # (3,) m/s
+    acceleration: np.ndarray  # (3,) m/s^2
+    yaw_rate: float  # rad/s
+    yaw_acceleration: float  # rad/s^2
+
+
+def motion_from_poses(pose_at: Callable[[float], SkeletonPose], joint_map, t: float,
+                      window: float = 1.0 / 60.0) -> RootMotion:
+    """Root motion at ``t`` by central differences over ``t - window, t, t + window``."""
+    samples = [root_frame(pose_at(t + k * window), joint_map) for k in (-1, 0, 1)]
+    p = np.array([s[0] for s in samples])
+    yaw = np.unwrap([s[1] for s in samples])
+    return RootMotion(
+        position=p[1], yaw=float(samples[1][1]),
+        velocity=(p[2] - p[0]) / (2 * window), acceleration=(p[2] - 2 * p[1] + p[0]) / window**2,
+        yaw_rate=float((yaw[2] - yaw[0]) / (2 * window)),
+        yaw_acceleration=float((yaw[2] - 2 * yaw[1] + yaw[0]) / window**2),
+    )
+
+
+class DressedCharacter:
+    """Garments on a fitted body. ``body`` is a ``body.fitting.Body`` (volumes, measurements, joint map, rest pose)."""
+
+    def __init__(self, body, garment_names: Sequence[str], params: SolverParams, resolution: float = 1.0):
+        if not garment_names:
+            raise ValueError("a dressed character needs at least one garment")
+        self.body = body
+        self.joint_map = dict(body.joint_map)
+        rest = body.rest_pose
+        root_position, root_yaw = root_frame(rest, self.joint_map)
+        to_root = inverse(root_position, yaw_quat(root_yaw))
+        self.solvers: list[GarmentSolver] = []
+        for name in garment_names:
+            mesh = build_garment(name, body.measurements, resolution)
+            missing = [role for role in mesh.attachments if role not in self.joint_map]
+            if missing:
+                raise ValueError(f"garment {name!r} is carried by {missing}, which the joint map does not name")
+            frame_names = tuple(self.joint_map[role] for role in mesh.attachments)
+            rest_poses = {role: compose(*to_root, *rest.frame(self.joint_map[role])) for role in mesh.attachments}
+            model = build_cloth_model(mesh, rest_poses)
+            self.solvers.append(GarmentSolver(model, body.volumes, params, frame_names))
+        frames: list[str] = []
+        for solver in self.solvers:
+            frames += [f for f in solver.frames if f not in frames]
+        self.frames = tuple(frames)
+        self._previous: tuple[SkeletonPose, RootMotion, float] | None = None
+
+    @property
+    def garment_names(self) -> list[str]:
+        return [s.model.name for s in self.solvers]
+
+    def set_params(self, params: SolverParams) -> None:
+        for solver in self.solvers:
+            solver.set_params(params)
+
+    def _frame_poses(self, pose: SkeletonPose, frames: Sequence[str]):
+        index = [pose.skeleton.index(f) for f in frames]
+        return pose.positions[index], pose.rotations[index]
+
+    def dress(self, pose: SkeletonPose, time_s: float, motion: RootMotion | None = None,
+              settle_s: float = 0.6, frame_s: float = 1.0 / 60.0) -> None:
+        """Put the garments on: start at the rest pose, then blend every segment (relative to the root)
+        from its rest pose to ``pose`` over ``settle_s`` while the root stands still, so the garments
+        start fitted and collision-free whatever the first pose is."""
+        rest = self.body.rest_pose
+        rest_root = root_frame(rest, self.joint_map)
+        root_position, root_yaw = root_frame(pose, self.joint_map)
+        rest_local = compose(*inverse(rest_root[0], yaw_quat(rest_root[1])), *self._frame_poses(rest, self.frames))
+        pose_local = compose(*inverse(root_position, yaw_quat(root_yaw)), *self._frame_poses(pose, self.frames))
+        to_world = (root_position, yaw_quat(root_yaw))
+
+        def blended(weight: float):
+            p = rest_local[0] + weight * (pose_local[0] - rest_local[0])
+            q = quat_slerp(rest_local[1], pose_local[1], np.full(len(self.frames), weight))
+            return compose(to_world[0], to_world[1], p, q)
+
+        steps = max(1, int(round(settle_s / frame_s)))
+        start = time_s - (steps + 60) * frame_s
+        for solver in self.solvers:
+            fp, fq = blended(0.0)
+            sel = [self.frames.index(f) for f in solver.frames]
+            solver.reset(root_position, root_yaw, fp[sel], fq[sel], start)
+        still = np.zeros(3)
+        # Blend, then hold the first pose for a second so the garments come to rest on it.
+        weights = [min(1.0, (k + 1) / steps) for k in range(steps + 60)]
+        t = start
+        previous = blended(0.0)
+        for weight in weights:
+            current = blended(weight)
+            for solver in self.solvers:
+                sel = [self.frames.index(f) for f in solver.frames]
+                solver.advance(FrameInput(t, t + frame_s, root_position, root_yaw, root_position, root_yaw,
+                                          still, still, 0.0, 0.0, previous[0][sel], previous[1][sel],
+                                          current[0][sel], current[1][sel]))
+            previous = current
+            t += frame_s
+        for solver in self.solvers:
+            solver.state.time = time_s
+            solver.state.lag = 0.0
+        if motion is None:
+            motion = RootMotion(np.asarray(root_position, float), root_yaw, still, still, 0.0, 0.0)
+        self._previous = (pose, motion, time_s)
+
+    def step(self, pose: SkeletonPose, motion: RootMotion, time_s: float) -> list[FrameReport]:
+        """Advance every garment from the previous pose to ``pose`` at ``time_s``."""
+        if self._previous is None:
+            raise RuntimeError("call dress() with the first pose before step()")
+        previous_pose, start_motion, previous_time = self._previous
+        p0, q0 = self._frame_poses(previous_pose, self.frames)
+        p1, q1 = self._frame_poses(pose, self.frames)
+        reports = []
+        for solver in self.solvers:
+            sel = [self.frames.index(f) for f in solver.frames]
+            frame = FrameInput(previous_time, time_s, start_motion.position, start_motion.yaw,
+                               motion.position, motion.yaw, start_motion.velocity, start_motion.acceleration,
+                               start_motion.yaw_rate, start_motion.yaw_acceleration,
+                               p0[sel], q0[sel], p1[sel], q1[sel])
+            reports.append(solver.advance(frame))
+        self._previous = (pose, motion, time_s)
+        return reports
+
+    @property
+    def root(self) -> RootMotion | None:
+        return self._previous[1] if self._previous else None
+
+    def world_positions(self) -> list[np.ndarray]:
+        motion = self.root
+        if motion is None:
+            raise RuntimeError("no frame yet")
+        return [s.world_positions(motion.position, motion.yaw) for s in self.solvers]
+
+    def max_penetration(self) -> float:
+        """Deepest point of any garment inside any volume at the last frame's end, m."""
+        depth = 0.0
+        for solver in self.solvers:
+            if solver.collider is not None:
+                depth = max(depth, float(np.max(solver.collider.penetration_depths(solver.state.positions),
+                                                initial=0.0)))
+        return depth

@@ -1,0 +1,34 @@
+"""The command line's JSON contracts."""
+
+import json
+import subprocess
+import sys
+
+
+def garment_sim(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "garment_sim_ros.cli", *args], capture_output=True, text=True,
+                          timeout=600)
+
+
+def test_garments_json_lists_the_four_templates():
+    result = garment_sim("garments", "--json")
+    assert result.returncode == 0, result.stderr
+    rows = [json.loads(line) for line in result.stdout.splitlines()]
+    assert [r["name"] for r in rows] == ["short_skirt", "long_skirt", "pants", "one_piece"]
+    for r in rows:
+        assert {"name", "mass_points", "edges", "springs", "triangles"} <= set(r)
+        assert r["springs"] > r["edges"] > r["mass_points"] > 0
+        assert r["triangles"] > r["mass_points"]
+
+
+def test_unknown_command_is_refused_with_the_list():
+    result = garment_sim("dance")
+    assert result.returncode == 2
+    assert "unknown command 'dance'" in result.stderr and "garments" in result.stderr
+
+
+def test_bad_resolution_is_an_error_not_a_traceback():
+    result = garment_sim("garments", "--resolution", "-3")
+    assert result.returncode == 2
+    assert "resolution" in result.stderr
+    assert "Traceback" not in result.stderr
