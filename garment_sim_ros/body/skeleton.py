@@ -68,3 +68,21 @@ def forward_kinematics(
             positions[i] = positions[parent] + quat_rotate(rotations[parent], local_positions[i])
             rotations[i] = quat_multiply(rotations[parent], local_rotations[i])
     return SkeletonPose(skeleton, positions, rotations)
+
+
+def offsets_pose(pose: SkeletonPose) -> SkeletonPose:
+    """The rest pose of a posed skeleton: its bone offsets (each child's position in its parent's
+    frame, constant for a rigid skeleton) with every rotation identity, the root at the origin.
+
+    For BVH clips this is the OFFSETS pose (a T-pose for CMU); it lets a consumer that only sees
+    posed skeletons (the node, from /tf) fit bodies and garments to the same rest pose as the clip's.
+    """
+    from ..transforms import IDENTITY_QUAT, quat_conjugate
+
+    skeleton = pose.skeleton
+    count = len(skeleton.names)
+    local = np.zeros((count, 3))
+    for i, parent in enumerate(skeleton.parents):
+        if parent >= 0:
+            local[i] = quat_rotate(quat_conjugate(pose.rotations[parent]), pose.positions[i] - pose.positions[parent])
+    return forward_kinematics(skeleton, local, np.tile(IDENTITY_QUAT, (count, 1)))
