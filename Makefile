@@ -13,7 +13,7 @@ BVH ?=
 venv: $(STAMP)
 
 # Re-run when the pins or the package metadata change; otherwise the venv is reused.
-$(STAMP): requirements.txt setup.py package.xml tools/build_tf2_msgs.sh
+$(STAMP): requirements.txt setup.py package.xml tools/build_tf2_msgs.sh $(wildcard tools/tf2_msgs/*.txt tools/tf2_msgs/*.xml tools/tf2_msgs/msg/*.msg)
 	@test -x "$$(command -v $(PYTHON))" || { echo "error: $(PYTHON) not found; set PYTHON=/path/to/python3.11"; exit 1; }
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip

@@ -12,6 +12,7 @@ setup(
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
         ("share/" + package_name + "/config", glob("config/*.yaml")),
+        ("share/" + package_name + "/config/joint_maps", glob("config/joint_maps/*.yaml")),
     ],
     package_data={package_name: ["data/*.yaml"]},
     install_requires=["setuptools"],
@@ -23,6 +24,8 @@ setup(
     entry_points={
         "console_scripts": [
             "garment-sim = garment_sim_ros.cli:main",
+            "garment_sim_node = garment_sim_ros.ros.node:main",
+            "skeleton_player = garment_sim_ros.ros.skeleton_player:main",
         ],
     },
 )
