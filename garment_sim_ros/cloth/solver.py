@@ -148,10 +148,11 @@ def relative_frame_forces(params: SolverParams, yaw: float, root_velocity: np.nd
     Returns ``uniform_accel = g - s_lin a0`` and ``frame_velocity = s_lin v_root - wind`` (the drag
     then is ``-k (v_rel + frame_velocity + s_ang omega x r)``), all rotated into the root frame.
     """
-    to_local = yaw_quat(-yaw)
     s = params.linear_inertia_scale
-    uniform = quat_rotate(to_local, np.asarray(params.gravity) - s * np.asarray(root_acceleration))
-    frame_velocity = quat_rotate(to_local, s * np.asarray(root_velocity) - wind)
+    c, n = math.cos(yaw), math.sin(yaw)
+    to_local = np.array([[c, n, 0.0], [-n, c, 0.0], [0.0, 0.0, 1.0]])  # rotation by -yaw about z
+    uniform = to_local @ (np.asarray(params.gravity) - s * np.asarray(root_acceleration))
+    frame_velocity = to_local @ (s * np.asarray(root_velocity) - wind)
     return uniform, frame_velocity
 
 

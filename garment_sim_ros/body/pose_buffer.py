@@ -1,0 +1,461 @@
+"""A time-stamped transform tree (what /tf and /tf_static carry), sampled as a skeleton at any time.
+
+ROS-free: the node feeds it ``add_transform`` calls from its /tf and /tf_static callbacks; tests
+feed it directly. A transform maps the child's coordinates into the parent's (the tf convention,
+the same as ``transforms.py``'s poses).
+
+- Static transforms hold for all time. Dynamic ones are kept per child frame as a time series
+  sorted by stamp (out-of-order arrivals inserted in place, an exact duplicate stamp replaces),
+  bounded by ``max_duration_s`` behind the child's newest stamp and ``max_count`` samples (at least
+  the two newest are kept), so memory stays bounded under any flood.
+- ``sample(T, frames)`` composes each frame's pose in the fixed frame at time ``T``: translations
+  interpolate linearly and rotations by slerp between the two bracketing stamps (exact at stamps;
+  exact at the midpoint of a constant-velocity translation); past the newest stamp it extrapolates
+  at the last pair's constant velocity for at most ``max_extrapolation_s``, then holds; before the
+  oldest it holds the oldest. The fixed frame can sit anywhere in the tree (as in tf2: poses are
+  composed to the tree's root and re-expressed in the fixed frame).
+- ``root_motion(T, dt, joint_map)``: the root (pelvis) kinematics the relative simulation needs
+  (memo §4): position, heading, velocity ``v0``, acceleration ``a0``, yaw rate and yaw acceleration,
+  from a least-squares quadratic over a ``kinematics_window_s`` window of samples (centred on T
+  where the data allows, else the newest) — so +-2 mm of mocap noise at 120 Hz give an ``a0`` error
+  of at most 4 m/s^2 instead of the 115 m/s^2 of a second difference of one noisy pair.
+- Bad input is refused with a message and counted, never raised: ``rejected[reason]`` counts
+  refusals (``non_finite``, ``malformed``, ``bad_frame_name``, ``zero_quaternion``,
+  ``non_unit_quaternion``, ``cycle``, ``too_old``, ``too_many_frames``); ``adjusted[what]`` counts
+  accepted input that was changed or replaced something (``normalised_quaternion``,
+  ``reparented``: a child with a new parent, latest wins and the old history is dropped;
+  ``static_dynamic_switch``; ``out_of_order``; ``duplicate_replaced``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import dataclass
+from enum import Enum
+from numbers import Real
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from ..transforms import IDENTITY_QUAT, compose, inverse, quat_slerp
+from .root import root_frame
+from .skeleton import Skeleton, SkeletonPose
+
+_UNIT_SILENT = 1e-3  # |q| within this of 1 is rounding: normalised without being counted
+
+
+class SampleStatus(Enum):
+    """How a sample was obtained, in increasing severity."""
+
+    OK = "ok"  # interpolated between stamps (or only static transforms)
+    EXTRAPOLATED = "extrapolated"  # past the newest stamp (bounded) or before the oldest (held)
+    STALE = "stale"  # the newest data is older than max_age_s; the pose is the held extrapolation
+    MISSING_FRAMES = "missing_frames"  # some frames are unknown or not connected to the fixed frame
+    NO_DATA = "no_data"  # nothing received yet
+
+
+@dataclass(frozen=True)
+class PoseSample:
+    pose: SkeletonPose | None  # None for MISSING_FRAMES and NO_DATA
+    status: SampleStatus
+    missing: tuple[str, ...]  # requested frames that could not be composed
+    age_s: float  # T minus the newest stamp of the stalest dynamic frame used (< 0: T inside the data)
+    detail: str = ""  # human-readable reason for a status other than OK
+
+
+@dataclass(frozen=True)
+class RootMotion:
+    """Root kinematics at time ``T`` (fixed frame, SI units). When ``status`` is MISSING_FRAMES or
+    NO_DATA the kinematic fields are None."""
+
+    status: SampleStatus
+    dt: float  # the frame time the increments are for, s
+    samples: int  # samples in the least-squares fit (0: no dynamic data, velocities are zero)
+    position: np.ndarray | None  # (3,) pelvis position at T, m
+    yaw: float | None  # heading at T, rad, in (-pi, pi]
+    velocity: np.ndarray | None  # (3,) v0, m/s
+    acceleration: np.ndarray | None  # (3,) a0, m/s^2
+    yaw_rate: float | None  # rad/s
+    yaw_acceleration: float | None  # rad/s^2
+    detail: str = ""
+
+    @property
+    def dx(self) -> np.ndarray:
+        """Root translation over the frame, ``v0 dt + a0 dt^2 / 2`` (memo §4)."""
+        return self.velocity * self.dt + 0.5 * self.acceleration * self.dt ** 2
+
+    @property
+    def dyaw(self) -> float:
+        return self.yaw_rate * self.dt + 0.5 * self.yaw_acceleration * self.dt ** 2
+
+
+class _Series:
+    """A child's dynamic samples sorted by stamp, in preallocated arrays of twice the capacity:
+    appends are O(1) amortised (the live block is moved to the front when it reaches the end)."""
+
+    def __init__(self, capacity: int):
+        self.capacity = capacity
+        self._stamps = np.empty(2 * capacity)
+        self._translations = np.empty((2 * capacity, 3))
+        self._rotations = np.empty((2 * capacity, 4))
+        self._start = 0
+        self._end = 0
+
+    def __len__(self) -> int:
+        return self._end - self._start
+
+    @property
+    def stamps(self) -> np.ndarray:
+        return self._stamps[self._start:self._end]
+
+    @property
+    def translations(self) -> np.ndarray:
+        return self._translations[self._start:self._end]
+
+    @property
+    def rotations(self) -> np.ndarray:
+        return self._rotations[self._start:self._end]
+
+    def insert(self, stamp: float, translation: np.ndarray, rotation: np.ndarray) -> str:
+        """Store a sample; returns 'appended', 'inserted' (out of order) or 'replaced' (same stamp)."""
+        if self._end == len(self._stamps):
+            live = slice(self._start, self._end)
+            count = len(self)
+            for array in (self._stamps, self._translations, self._rotations):
+                array[:count] = array[live]
+            self._start, self._end = 0, count
+        stamps = self.stamps
+        if len(stamps) == 0 or stamp > stamps[-1]:
+            at, outcome = self._end, "appended"
+            self._end += 1
+        else:
+            offset = int(np.searchsorted(stamps, stamp))
+            at = self._start + offset
+            if stamps[offset] == stamp:
+                outcome = "replaced"
+            else:
+                for array in (self._stamps, self._translations, self._rotations):
+                    array[at + 1:self._end + 1] = array[at:self._end].copy()
+                self._end += 1
+                outcome = "inserted"
+        self._stamps[at] = stamp
+        self._translations[at] = translation
+        self._rotations[at] = rotation
+        return outcome
+
+    def trim(self, max_duration_s: float) -> None:
+        """Drop samples beyond the capacity or older than ``max_duration_s`` behind the newest (keeps two)."""
+        stamps = self.stamps
+        keep_from = max(len(stamps) - self.capacity, int(np.searchsorted(stamps, stamps[-1] - max_duration_s)))
+        self._start += max(0, min(keep_from, len(stamps) - 2))
+
+    def bracket(self, times: np.ndarray, max_extrapolation_s: float):
+        """The samples around each of ``times`` (K,) and the interpolation weight between them:
+        p0, p1 (K, 3), q0, q1 (K, 4), weight (K,) (0 before the oldest, > 1 when extrapolating)."""
+        stamps, translations, rotations = self.stamps, self.translations, self.rotations
+        if len(stamps) == 1:
+            p, q = np.repeat(translations, len(times), axis=0), np.repeat(rotations, len(times), axis=0)
+            return p, p, q, q, np.zeros(len(times))
+        clamped = np.minimum(times, stamps[-1] + max_extrapolation_s)
+        low = np.minimum(np.maximum(np.searchsorted(stamps, clamped, side="right") - 1, 0), len(stamps) - 2)
+        weight = np.maximum((clamped - stamps[low]) / (stamps[low + 1] - stamps[low]), 0.0)
+        return translations[low], translations[low + 1], rotations[low], rotations[low + 1], weight
+
+
+def _as_vector(value, size: int) -> list[float] | None:
+    """``size`` floats, or None. Plain Python: a /tf flood calls this ~1e4 times a second."""
+    try:
+        values = [float(v) for v in value]
+    except (TypeError, ValueError):
+        return None
+    return values if len(values) == size else None
+
+
+class PoseBuffer:
+    """The transform tree of /tf and /tf_static, sampled in ``fixed_frame`` at any time."""
+
+    def __init__(
+        self,
+        fixed_frame: str = "world",
+        max_duration_s: float = 2.0,
+        max_count: int = 2048,
+        max_extrapolation_s: float = 0.1,
+        max_age_s: float = 0.5,
+        quaternion_tolerance: float = 0.1,
+        kinematics_window_s: float = 0.1,
+        max_frames: int = 1000,
+    ):
+        checks = {
+            "max_duration_s": (max_duration_s, 0.0), "max_count": (max_count, 2),
+            "max_extrapolation_s": (max_extrapolation_s, 0.0), "max_age_s": (max_age_s, 0.0),
+            "quaternion_tolerance": (quaternion_tolerance, _UNIT_SILENT),
+            "kinematics_window_s": (kinematics_window_s, 0.0), "max_frames": (max_frames, 1),
+        }
+        for name, (value, low) in checks.items():
+            whole = name in ("max_count", "max_frames")
+            if (isinstance(value, bool) or not isinstance(value, (int, float)) or not low <= value < math.inf
+                    or (whole and not float(value).is_integer())):
+                kind = "a whole number" if whole else "a finite number"
+                raise ValueError(f"PoseBuffer.{name}: got {value!r}; allowed: {kind} >= {low}")
+        if not isinstance(fixed_frame, str) or not fixed_frame:
+            raise ValueError(f"PoseBuffer.fixed_frame: got {fixed_frame!r}; allowed: a non-empty frame name")
+        self.fixed_frame = fixed_frame
+        self.max_duration_s = float(max_duration_s)
+        self.max_count = int(max_count)
+        self.max_extrapolation_s = float(max_extrapolation_s)
+        self.max_age_s = float(max_age_s)
+        self.quaternion_tolerance = float(quaternion_tolerance)
+        self.kinematics_window_s = float(kinematics_window_s)
+        self.max_frames = int(max_frames)
+        self.rejected: Counter[str] = Counter()
+        self.adjusted: Counter[str] = Counter()
+        self._parent: dict[str, str] = {}
+        self._static: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        self._dynamic: dict[str, _Series] = {}
+
+    # ------------------------------------------------------------------ input
+
+    def add_transform(self, stamp_s: float, parent: str, child: str, translation, rotation_xyzw,
+                      static: bool = False) -> str | None:
+        """Store one transform. Returns None when stored, else why it was refused (also counted)."""
+        if not (isinstance(parent, str) and isinstance(child, str) and parent and child) or parent == child:
+            return self._reject("bad_frame_name", parent, child, "frame names must be two different non-empty strings")
+        position = _as_vector(translation, 3)
+        rotation = _as_vector(rotation_xyzw, 4)
+        if position is None or rotation is None or isinstance(stamp_s, bool) or not isinstance(stamp_s, Real):
+            return self._reject("malformed", parent, child, f"need a numeric stamp, a translation of 3 and a rotation "
+                                f"of 4 numbers (x, y, z, w); got {stamp_s!r}, {translation!r}, {rotation_xyzw!r}")
+        stamp_s = float(stamp_s)
+        if not all(math.isfinite(v) for v in (stamp_s, *position, *rotation)):
+            return self._reject("non_finite", parent, child, f"non-finite stamp, translation or rotation at {stamp_s}")
+        norm = math.sqrt(sum(v * v for v in rotation))
+        if norm < 1e-9:
+            return self._reject("zero_quaternion", parent, child, f"zero quaternion at {stamp_s}")
+        if abs(norm - 1.0) > self.quaternion_tolerance:
+            return self._reject("non_unit_quaternion", parent, child, f"quaternion norm {norm:.6g} at {stamp_s} is "
+                                f"not within quaternion_tolerance {self.quaternion_tolerance} of 1")
+        if abs(norm - 1.0) > _UNIT_SILENT:
+            self.adjusted["normalised_quaternion"] += 1
+        known = child in self._parent
+        if not known and len(self._parent) >= self.max_frames:
+            return self._reject("too_many_frames", parent, child,
+                                f"already {self.max_frames} child frames (max_frames)")
+        if self._parent.get(child) != parent:
+            cycle = self._cycle_through(parent, child)
+            if cycle:
+                return self._reject("cycle", parent, child, f"refused, it would close the cycle {' -> '.join(cycle)}")
+            if known:
+                self.adjusted["reparented"] += 1
+                self._forget(child)
+        elif known and static != (child in self._static):
+            self.adjusted["static_dynamic_switch"] += 1
+            self._forget(child)
+        self._parent[child] = parent
+        if static:
+            self._static[child] = (np.array(position), np.array(rotation) / norm)
+            return None
+        series = self._dynamic.get(child)
+        if series is None:
+            series = self._dynamic[child] = _Series(self.max_count)
+        elif stamp_s < series.stamps[-1] - self.max_duration_s:
+            return self._reject("too_old", parent, child, f"stamp {stamp_s} is more than max_duration_s "
+                                f"({self.max_duration_s} s) behind the newest, {series.stamps[-1]}")
+        outcome = series.insert(stamp_s, position, [v / norm for v in rotation])
+        if outcome == "inserted":
+            self.adjusted["out_of_order"] += 1
+        elif outcome == "replaced":
+            self.adjusted["duplicate_replaced"] += 1
+        series.trim(self.max_duration_s)
+        return None
+
+    def _reject(self, reason: str, parent, child, why: str) -> str:
+        self.rejected[reason] += 1
+        return f"transform {parent!r} -> {child!r}: {why}"
+
+    def _cycle_through(self, parent: str, child: str) -> list[str]:
+        """The cycle ``child -> parent -> ... -> child`` the new edge would close, or []."""
+        chain = [child, parent]
+        while chain[-1] in self._parent:
+            chain.append(self._parent[chain[-1]])
+            if chain[-1] == child:
+                return chain
+        return []
+
+    def _forget(self, child: str) -> None:
+        self._static.pop(child, None)
+        self._dynamic.pop(child, None)
+        self._parent.pop(child, None)
+
+    # ------------------------------------------------------------------ the tree
+
+    @property
+    def frames(self) -> tuple[str, ...]:
+        """Every frame named so far, as a child or a parent, sorted."""
+        return tuple(sorted(set(self._parent) | set(self._parent.values())))
+
+    def parent(self, child: str) -> str | None:
+        return self._parent.get(child)
+
+    def sample_count(self, child: str) -> int:
+        """Dynamic samples held for ``child`` (1 for a static transform, 0 if unknown)."""
+        if child in self._static:
+            return 1
+        return len(self._dynamic[child]) if child in self._dynamic else 0
+
+    def skeleton_from_tree(self, root_frame_name: str) -> Skeleton:
+        """The subtree under ``root_frame_name`` as a ``Skeleton`` (children sorted by name)."""
+        if root_frame_name not in self.frames:
+            known = ", ".join(self.frames) or "none yet"
+            raise KeyError(f"skeleton_from_tree: no frame {root_frame_name!r} in the tree; known: {known}")
+        children: dict[str, list[str]] = {}
+        for child, parent in self._parent.items():
+            children.setdefault(parent, []).append(child)
+        names, parents = [root_frame_name], [-1]
+        for i, name in enumerate(names):  # breadth first: parents precede children
+            for child in sorted(children.get(name, ())):
+                names.append(child)
+                parents.append(i)
+        return Skeleton(tuple(names), tuple(parents))
+
+    # ------------------------------------------------------------------ sampling
+
+    def _chain(self, frame: str) -> list[str]:
+        """``frame`` and its ancestors up to the tree's root (the last entry)."""
+        chain = [frame]
+        while chain[-1] in self._parent:
+            chain.append(self._parent[chain[-1]])
+        return chain
+
+    def _compose(self, frames: Sequence[str], times: np.ndarray):
+        """Poses of ``frames`` in the fixed frame at ``times`` (K,): positions (F, K, 3), rotations
+        (F, K, 4), the frames not connected to the fixed frame, and the dynamic frames used.
+
+        Vectorised: one interpolation over every dynamic frame needed, then one composition per
+        tree depth (each frame's pose relative to its tree's root), then into the fixed frame."""
+        known = set(self._parent) | set(self._parent.values())
+        fixed_chain = self._chain(self.fixed_frame)
+        row: dict[str, int] = {}  # every frame needed, parents before children
+        missing = []
+        for frame in frames:
+            chain = self._chain(frame)
+            if frame != self.fixed_frame and (frame not in known or chain[-1] != fixed_chain[-1]):
+                missing.append(frame)
+                continue
+            for name in reversed(chain):
+                row.setdefault(name, len(row))
+        if len(row) > 0:
+            for name in reversed(fixed_chain):
+                row.setdefault(name, len(row))
+        names = list(row)
+        count = len(times)
+        local_p = np.zeros((len(names), count, 3))
+        local_q = np.tile(IDENTITY_QUAT, (len(names), count, 1))
+        used = [name for name in names if name in self._dynamic]
+        for name in names:
+            if name in self._static:
+                local_p[row[name]], local_q[row[name]] = self._static[name]
+        if used:
+            pairs = [self._dynamic[name].bracket(times, self.max_extrapolation_s) for name in used]
+            p0, p1, q0, q1, weight = (np.stack(parts) for parts in zip(*pairs))
+            rows = [row[name] for name in used]
+            local_p[rows] = p0 + weight[..., None] * (p1 - p0)
+            local_q[rows] = quat_slerp(q0, q1, weight)
+        # compose down the tree, one depth at a time; a tree root's pose is the identity
+        depth = np.zeros(len(names), dtype=int)
+        parent_row = np.full(len(names), -1)
+        for name, i in row.items():
+            if name in self._parent:
+                parent_row[i] = row[self._parent[name]]
+                depth[i] = depth[parent_row[i]] + 1
+        world_p, world_q = local_p.copy(), local_q.copy()
+        world_p[depth == 0], world_q[depth == 0] = 0.0, IDENTITY_QUAT
+        for level in range(1, depth.max(initial=0) + 1):
+            at = np.flatnonzero(depth == level)
+            up = parent_row[at]
+            world_p[at], world_q[at] = compose(world_p[up], world_q[up], local_p[at], local_q[at])
+        found = [row[frame] for frame in frames if frame not in missing]
+        positions, rotations = world_p[found], world_q[found]
+        if len(fixed_chain) > 1:
+            positions, rotations = compose(*inverse(world_p[row[self.fixed_frame]], world_q[row[self.fixed_frame]]),
+                                           positions, rotations)
+        return positions, rotations, missing, set(used)
+
+    def sample(self, stamp_s: float, frames: Skeleton | Sequence[str]) -> PoseSample:
+        """The pose of ``frames`` (a Skeleton, or frame names: a flat skeleton) in the fixed frame at ``stamp_s``."""
+        return self._sample(stamp_s, frames)[0]
+
+    def _sample(self, stamp_s: float, frames: Skeleton | Sequence[str]) -> tuple[PoseSample, set[str]]:
+        """The sample and the dynamic frames it was composed from."""
+        skeleton = frames if isinstance(frames, Skeleton) else Skeleton(tuple(frames), (-1,) * len(frames))
+        if not self._parent:
+            return PoseSample(None, SampleStatus.NO_DATA, skeleton.names, math.inf, "no transform received yet"), set()
+        positions, rotations, missing, used = self._compose(skeleton.names, np.array([float(stamp_s)]))
+        if missing:
+            detail = "; ".join(self._why_missing(frame) for frame in missing)
+            return PoseSample(None, SampleStatus.MISSING_FRAMES, tuple(missing), math.nan, detail), used
+        status, age, detail = SampleStatus.OK, 0.0, ""
+        if used:
+            newest = {frame: self._dynamic[frame].stamps[-1] for frame in used}
+            oldest = {frame: self._dynamic[frame].stamps[0] for frame in used}
+            stalest = min(newest, key=newest.get)
+            age = float(stamp_s - newest[stalest])
+            if age > self.max_age_s:
+                status = SampleStatus.STALE
+                detail = f"newest data of {stalest!r} is {age:.3f} s old (max_age_s {self.max_age_s})"
+            elif age > 0.0 or any(stamp_s < oldest[f] for f in used):
+                status = SampleStatus.EXTRAPOLATED
+                detail = f"{stamp_s} is outside the stamps of " + ", ".join(
+                    repr(f) for f in sorted(used) if not oldest[f] <= stamp_s <= newest[f])
+        pose = SkeletonPose(skeleton, positions[:, 0], rotations[:, 0])
+        return PoseSample(pose, status, (), age, detail), used
+
+    def _why_missing(self, frame: str) -> str:
+        if self.fixed_frame not in self.frames:
+            return f"{frame!r}: the fixed frame {self.fixed_frame!r} is not in the tree"
+        if frame not in self.frames:
+            return f"{frame!r}: no transform names it"
+        chain = self._chain(frame)
+        return f"{frame!r}: {' -> '.join(chain)} does not reach {self.fixed_frame!r}"
+
+    # ------------------------------------------------------------------ root kinematics
+
+    def root_motion(self, stamp_s: float, dt: float, joint_map: Mapping[str, str]) -> RootMotion:
+        """Root (pelvis) position, heading and their first two derivatives at ``stamp_s``.
+
+        Position and heading are the sample at ``stamp_s``. The derivatives come from a least-squares
+        quadratic in time over the samples of a ``kinematics_window_s`` window ending at
+        ``min(stamp_s + window / 2, newest stamp)`` (at least three samples), evaluated at
+        ``stamp_s``: centred on T when the data reaches past it, otherwise the newest window, whose
+        acceleration is about the mean over it (lags ~ window / 2). The heading is
+        ``body.root.root_frame``'s, unwrapped before the fit."""
+        names = (joint_map["pelvis"], joint_map["left_upper_leg"], joint_map["right_upper_leg"])
+        roles = {"pelvis": names[0], "left_upper_leg": names[1], "right_upper_leg": names[2]}
+        now, used = self._sample(stamp_s, list(dict.fromkeys(names)))
+        if now.pose is None:
+            return RootMotion(now.status, dt, 0, None, None, None, None, None, None, now.detail)
+        position, yaw = root_frame(now.pose, roles)
+        stamps = np.unique(np.concatenate([self._dynamic[f].stamps for f in used] + [np.empty(0)]))
+        # centred on T where the data reaches past it (no lag), else the newest window (lag ~ window / 2)
+        stamps = stamps[stamps <= stamp_s + 0.5 * self.kinematics_window_s]
+        window = stamps[stamps >= stamps[-1] - self.kinematics_window_s] if len(stamps) else stamps
+        if len(window) < 3:
+            window = stamps[-3:]
+        if len(window) < 2:
+            zero = np.zeros(3)
+            return RootMotion(now.status, dt, len(window), position, yaw, zero, zero, 0.0, 0.0, now.detail)
+        positions, rotations, _, _ = self._compose(now.pose.skeleton.names, window)
+        yaws = np.unwrap([
+            root_frame(SkeletonPose(now.pose.skeleton, positions[:, k], rotations[:, k]), roles)[1]
+            for k in range(len(window))
+        ])
+        degree = min(2, len(window) - 1)
+        design = np.vander(window - float(stamp_s), degree + 1, increasing=True)
+        coefficients = np.linalg.lstsq(design, np.column_stack([positions[0], yaws]), rcond=None)[0]
+        velocity, yaw_rate = coefficients[1, :3], float(coefficients[1, 3])
+        if degree == 2:
+            acceleration, yaw_acceleration = 2.0 * coefficients[2, :3], 2.0 * float(coefficients[2, 3])
+        else:
+            acceleration, yaw_acceleration = np.zeros(3), 0.0
+        return RootMotion(now.status, dt, len(window), position, yaw, velocity, acceleration,
+                          yaw_rate, yaw_acceleration, now.detail)
