@@ -1,0 +1,358 @@
+"""BVH motion-capture clips, converted once at the edge to REP-103 (z up, metres).
+
+A small parser of our own: the maintained candidate, ``bvhio`` 1.5.4, pins a compiled
+``pyglm==2.8.2``, builds one Python transform object per joint per frame (slow for 2752 x 31),
+loops forever on a truncated MOTION section (``readline`` at end of file never raises) and
+reports wrong line numbers past the first joint. This one reads the MOTION block in one numpy
+call and names the file and line of every error.
+
+Axes: BVH is y up; a character facing +z in the file has its left on +x. The proper rotation
+``M: (x, y, z)_bvh -> (z, x, y)_rep`` maps BVH forward (+z) to REP-103 forward (+x), BVH left
+(+x) to +y and BVH up (+y) to +z. Local translations are rotated by ``M`` (and scaled to metres),
+local rotations are conjugated by ``M``, so world positions come out as ``M`` times the file's.
+
+Euler channels are applied in the order written, intrinsic, as BVH defines it:
+``CHANNELS 3 Zrotation Xrotation Yrotation`` means ``R = Rz(a) Rx(b) Ry(c)``.
+A joint's local translation is its OFFSET, with each axis that has a position channel replaced
+by the channel's value (the root's position channels give its position).
+
+End Sites are kept as leaf joints named ``<parent>_end`` (no channels, identity rotation): they
+give the head and the feet their length.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..transforms import IDENTITY_QUAT, quat_from_axis_angle, quat_multiply, quat_rotate, quat_slerp
+from .skeleton import Skeleton, SkeletonPose, forward_kinematics
+
+# File length units -> metres. CMU: the cgspeed conversions keep the ASF's unit of 1/0.45 inch.
+UNIT_SCALES: dict[str, float] = {
+    "m": 1.0,
+    "cm": 0.01,
+    "mm": 0.001,
+    "inch": 0.0254,
+    "cmu": 0.05644,
+}
+# Auto-detection picks the unit that makes the rest pose's vertical extent closest to this
+# (an adult's joints span ~1.45 m: end of the head to the toes), within the plausible range.
+_TYPICAL_EXTENT_M = 1.45
+_PLAUSIBLE_EXTENT_M = (0.5, 3.0)
+
+# BVH axis letter -> the REP-103 axis it becomes under M.
+_REP_AXIS = {"X": np.array([0.0, 1.0, 0.0]), "Y": np.array([0.0, 0.0, 1.0]), "Z": np.array([1.0, 0.0, 0.0])}
+_CHANNEL = re.compile(r"^([XYZ])(position|rotation)$")
+
+
+class BvhError(ValueError):
+    """A BVH file could not be read; the message names the file and the line."""
+
+
+def bvh_to_rep(v: np.ndarray) -> np.ndarray:
+    """Vectors (..., 3) from BVH axes to REP-103 axes: ``(x, y, z) -> (z, x, y)``."""
+    v = np.asarray(v, dtype=float)
+    return v[..., [2, 0, 1]]
+
+
+@dataclass(frozen=True)
+class Clip:
+    """A motion clip in REP-103 metres.
+
+    ``translations (F, J, 3)`` and ``rotations (F, J, 4)`` (xyzw) are local to each joint's
+    parent (the root's to the world); ``offsets (J, 3)`` are the rest-pose local translations.
+    """
+
+    path: str
+    skeleton: Skeleton
+    offsets: np.ndarray
+    translations: np.ndarray
+    rotations: np.ndarray
+    frame_time: float
+    units_scale: float  # metres per file unit
+
+    @property
+    def frames(self) -> int:
+        return int(self.translations.shape[0])
+
+    @property
+    def fps(self) -> float:
+        return 1.0 / self.frame_time
+
+    @property
+    def duration(self) -> float:
+        """Time from the first to the last frame, s."""
+        return (self.frames - 1) * self.frame_time
+
+    def pose(self, i: int) -> SkeletonPose:
+        if not -self.frames <= i < self.frames:
+            raise IndexError(f"{self.path}: frame {i} out of range; the clip has {self.frames} frames")
+        return forward_kinematics(self.skeleton, self.translations[i], self.rotations[i])
+
+    def rest_pose(self) -> SkeletonPose:
+        """Every rotation identity: the OFFSETS pose, with the root at the origin."""
+        count = len(self.skeleton.names)
+        return forward_kinematics(self.skeleton, self.offsets, np.tile(IDENTITY_QUAT, (count, 1)))
+
+    def sample_local(self, t: float, loop: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """Local translations (J, 3) and rotations (J, 4) at time ``t`` (s from the first frame).
+
+        Translations are interpolated linearly, rotations by slerp, joint by joint. ``loop``: the
+        clip restarts after its last frame (period ``duration``, no blend across the seam: mocap
+        clips do not end where they start); otherwise ``t`` is clamped to the clip.
+        """
+        if not math.isfinite(t):
+            raise ValueError(f"{self.path}: sample time must be finite, got {t!r}")
+        if self.frames == 1:
+            return self.translations[0], self.rotations[0]
+        t = t % self.duration if loop else min(max(t, 0.0), self.duration)
+        position = t / self.frame_time
+        i = min(int(position), self.frames - 2)
+        a = position - i
+        translations = (1.0 - a) * self.translations[i] + a * self.translations[i + 1]
+        return translations, quat_slerp(self.rotations[i], self.rotations[i + 1], a)
+
+    def sample(self, t: float, loop: bool = False) -> SkeletonPose:
+        """World pose at time ``t``: ``sample_local`` composed down the tree."""
+        return forward_kinematics(self.skeleton, *self.sample_local(t, loop))
+
+    def joint_trajectory(self, name: str) -> np.ndarray:
+        """World positions (F, 3) of one joint over every frame (composes only its ancestors)."""
+        chain = [self.skeleton.index(name)]
+        while self.skeleton.parents[chain[-1]] >= 0:
+            chain.append(self.skeleton.parents[chain[-1]])
+        position = self.translations[:, chain[-1]]
+        rotation = self.rotations[:, chain[-1]]
+        for j in reversed(chain[:-1]):
+            position = position + quat_rotate(rotation, self.translations[:, j])
+            rotation = quat_multiply(rotation, self.rotations[:, j])
+        return position
+
+
+@dataclass
+class _Joint:
+    name: str
+    parent: int
+    offset: np.ndarray
+    channels: list[str]
+    line: int  # line of the JOINT/ROOT/End Site keyword
+
+
+class _Lines:
+    """Non-empty lines with their 1-based numbers, for error messages."""
+
+    def __init__(self, path: str, text: str):
+        self.path = path
+        self.items = [(n, line.split()) for n, line in enumerate(text.splitlines(), 1) if line.strip()]
+        self.pos = 0
+        self.last_line = text.count("\n") + 1
+
+    def error(self, line: int, message: str) -> BvhError:
+        return BvhError(f"{self.path}:{line}: {message}")
+
+    def next(self, expected: str) -> tuple[int, list[str]]:
+        if self.pos >= len(self.items):
+            raise self.error(self.last_line, f"unexpected end of file, expected {expected}")
+        item = self.items[self.pos]
+        self.pos += 1
+        return item
+
+
+def _parse_floats(lines: _Lines, line: int, tokens: list[str], what: str) -> np.ndarray:
+    try:
+        return np.array([float(t) for t in tokens])
+    except ValueError:
+        bad = next(t for t in tokens if not _is_float(t))
+        raise lines.error(line, f"{what}: {bad!r} is not a number") from None
+
+
+def _is_float(token: str) -> bool:
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
+
+
+def _parse_hierarchy(lines: _Lines) -> list[_Joint]:
+    line, tokens = lines.next("HIERARCHY")
+    if tokens != ["HIERARCHY"]:
+        raise lines.error(line, f"expected 'HIERARCHY', got {' '.join(tokens)!r}")
+    line, tokens = lines.next("ROOT")
+    if tokens[0] != "ROOT" or len(tokens) != 2:
+        raise lines.error(line, f"expected 'ROOT <name>', got {' '.join(tokens)!r}")
+    joints: list[_Joint] = []
+    _parse_joint(lines, joints, tokens[1], -1, line, end_site=False)
+    return joints
+
+
+def _parse_joint(lines: _Lines, joints: list[_Joint], name: str, parent: int, line: int, end_site: bool) -> None:
+    brace_line, tokens = lines.next("'{'")
+    if tokens != ["{"]:
+        raise lines.error(brace_line, f"expected '{{' after joint {name!r}, got {' '.join(tokens)!r}")
+    offset_line, tokens = lines.next("OFFSET")
+    if tokens[0] != "OFFSET" or len(tokens) != 4:
+        raise lines.error(offset_line, f"joint {name!r}: expected 'OFFSET x y z', got {' '.join(tokens)!r}")
+    offset = _parse_floats(lines, offset_line, tokens[1:], f"joint {name!r} OFFSET")
+    channels: list[str] = []
+    if not end_site:
+        channel_line, tokens = lines.next("CHANNELS")
+        if tokens[0] != "CHANNELS" or len(tokens) < 2 or not tokens[1].isdigit():
+            raise lines.error(channel_line, f"joint {name!r}: expected 'CHANNELS <count> <names...>', "
+                                            f"got {' '.join(tokens)!r}")
+        channels = tokens[2:]
+        if int(tokens[1]) != len(channels):
+            raise lines.error(channel_line, f"joint {name!r}: CHANNELS says {tokens[1]} but lists {len(channels)}")
+        for channel in channels:
+            if not _CHANNEL.match(channel):
+                raise lines.error(channel_line, f"joint {name!r}: unknown channel {channel!r}; allowed: "
+                                                "Xposition, Yposition, Zposition, Xrotation, Yrotation, Zrotation")
+        if len(set(channels)) != len(channels):
+            raise lines.error(channel_line, f"joint {name!r}: a channel is listed twice: {' '.join(channels)}")
+    joints.append(_Joint(name, parent, offset, channels, line))
+    index = len(joints) - 1
+    while True:
+        child_line, tokens = lines.next("JOINT, End Site or '}'")
+        if tokens == ["}"]:
+            return
+        if end_site:
+            raise lines.error(child_line, f"an End Site has no children; expected '}}', got {' '.join(tokens)!r}")
+        if tokens[0] == "JOINT" and len(tokens) == 2:
+            _parse_joint(lines, joints, tokens[1], index, child_line, end_site=False)
+        elif tokens == ["End", "Site"]:
+            _parse_joint(lines, joints, f"{name}_end", index, child_line, end_site=True)
+        else:
+            raise lines.error(child_line, f"joint {name!r}: expected 'JOINT <name>', 'End Site' or '}}', "
+                                          f"got {' '.join(tokens)!r}")
+
+
+def _parse_motion(lines: _Lines, channel_count: int) -> tuple[np.ndarray, float]:
+    line, tokens = lines.next("MOTION")
+    if tokens != ["MOTION"]:
+        raise lines.error(line, f"expected 'MOTION' after the hierarchy, got {' '.join(tokens)!r}")
+    line, tokens = lines.next("'Frames: <count>'")
+    if len(tokens) != 2 or tokens[0] != "Frames:" or not tokens[1].isdigit() or int(tokens[1]) < 1:
+        raise lines.error(line, f"expected 'Frames: <count >= 1>', got {' '.join(tokens)!r}")
+    frame_count = int(tokens[1])
+    line, tokens = lines.next("'Frame Time: <seconds>'")
+    if len(tokens) != 3 or tokens[:2] != ["Frame", "Time:"]:
+        raise lines.error(line, f"expected 'Frame Time: <seconds>', got {' '.join(tokens)!r}")
+    frame_time = float(_parse_floats(lines, line, tokens[2:], "Frame Time")[0])
+    if not (math.isfinite(frame_time) and frame_time > 0.0):
+        raise lines.error(line, f"Frame Time must be a positive number of seconds, got {tokens[2]!r}")
+    rows = lines.items[lines.pos:]
+    if len(rows) < frame_count:
+        raise lines.error(lines.last_line, f"truncated MOTION: 'Frames: {frame_count}' but only {len(rows)} "
+                                           "frame lines follow")
+    if len(rows) > frame_count:
+        raise lines.error(rows[frame_count][0], f"{len(rows) - frame_count} line(s) after the {frame_count} "
+                                                "frames that 'Frames:' announces")
+    for n, values in rows:
+        if len(values) != channel_count:
+            raise lines.error(n, f"frame line has {len(values)} values, the hierarchy declares "
+                                 f"{channel_count} channels")
+    try:
+        data = np.array([values for _, values in rows], dtype=float)
+    except ValueError:
+        for n, values in rows:
+            _parse_floats(lines, n, values, "frame values")
+        raise
+    if not np.all(np.isfinite(data)):
+        n = rows[int(np.argwhere(~np.isfinite(data))[0, 0])][0]
+        raise lines.error(n, "frame values must be finite numbers")
+    return data, frame_time
+
+
+def _rest_extent(joints: list[_Joint]) -> float:
+    """Vertical (BVH y) span of the OFFSETS pose, file units."""
+    heights = np.zeros(len(joints))
+    for i, joint in enumerate(joints):
+        heights[i] = joint.offset[1] + (heights[joint.parent] if joint.parent >= 0 else 0.0)
+    return float(heights.max() - heights.min())
+
+
+def resolve_units(units: str | float, extent: float, path: str) -> float:
+    """Metres per file unit: a name of ``UNIT_SCALES``, a positive number, or ``"auto"``."""
+    if isinstance(units, (int, float)) and not isinstance(units, bool):
+        if not (math.isfinite(units) and units > 0.0):
+            raise BvhError(f"{path}: units scale must be a positive number of metres per unit, got {units!r}")
+        return float(units)
+    if units == "auto":
+        if extent <= 0.0:
+            raise BvhError(f"{path}: the rest pose has no vertical extent; cannot detect units, pass units=")
+        plausible = {name: scale for name, scale in UNIT_SCALES.items()
+                     if _PLAUSIBLE_EXTENT_M[0] <= extent * scale <= _PLAUSIBLE_EXTENT_M[1]}
+        if not plausible:
+            raise BvhError(f"{path}: rest pose spans {extent:g} file units, which is no human height in any of "
+                           f"{', '.join(UNIT_SCALES)}; pass units= explicitly")
+        return min(plausible.values(), key=lambda s: abs(math.log(extent * s / _TYPICAL_EXTENT_M)))
+    if units in UNIT_SCALES:
+        return UNIT_SCALES[units]
+    raise BvhError(f"{path}: unknown units {units!r}; allowed: auto, {', '.join(UNIT_SCALES)} or metres per unit")
+
+
+def _euler_quaternions(channels: list[str], values: np.ndarray) -> np.ndarray:
+    """Local rotations (F, 4) in REP-103 axes from one joint's Euler channels (degrees)."""
+    rotation = np.tile(IDENTITY_QUAT, (values.shape[0], 1))
+    for k, channel in enumerate(channels):
+        axis, kind = _CHANNEL.match(channel).groups()
+        if kind == "rotation":
+            rotation = quat_multiply(rotation, quat_from_axis_angle(_REP_AXIS[axis], np.radians(values[:, k])))
+    return rotation
+
+
+def load_bvh(path: str | Path, units: str | float = "auto", skip_first_frame: bool = False) -> Clip:
+    """Read a BVH file into a ``Clip`` in REP-103 metres.
+
+    ``units``: ``"auto"`` (from the rest pose's height), a name of ``UNIT_SCALES`` or metres per
+    file unit. ``skip_first_frame``: drop frame 0 (CMU clips often start with a T-pose).
+    """
+    path = str(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8", errors="replace")
+    except OSError as err:
+        raise BvhError(f"{path}: cannot read BVH file: {err.strerror or err}") from None
+    lines = _Lines(path, text)
+    joints = _parse_hierarchy(lines)
+    channel_count = sum(len(j.channels) for j in joints)
+    data, frame_time = _parse_motion(lines, channel_count)
+    if skip_first_frame:
+        if data.shape[0] < 2:
+            raise BvhError(f"{path}: cannot skip the first frame of a clip with {data.shape[0]} frame")
+        data = data[1:]
+    scale = resolve_units(units, _rest_extent(joints), path)
+
+    names = [j.name for j in joints]
+    duplicates = sorted({n for n in names if names.count(n) > 1})
+    if duplicates:
+        first = next(j for j in joints if j.name == duplicates[0])
+        raise lines.error(first.line, f"joint names must be unique; repeated: {', '.join(duplicates)}")
+    skeleton = Skeleton(tuple(names), tuple(j.parent for j in joints))
+
+    frames = data.shape[0]
+    offsets_file = np.array([j.offset for j in joints])
+    translations_file = np.broadcast_to(offsets_file, (frames, len(joints), 3)).copy()
+    rotations = np.empty((frames, len(joints), 4))
+    column = 0
+    for i, joint in enumerate(joints):
+        values = data[:, column:column + len(joint.channels)]
+        for k, channel in enumerate(joint.channels):
+            axis, kind = _CHANNEL.match(channel).groups()
+            if kind == "position":
+                translations_file[:, i, "XYZ".index(axis)] = values[:, k]
+        rotations[:, i] = _euler_quaternions(joint.channels, values)
+        column += len(joint.channels)
+    return Clip(
+        path=path,
+        skeleton=skeleton,
+        offsets=bvh_to_rep(offsets_file) * scale,
+        translations=bvh_to_rep(translations_file) * scale,
+        rotations=rotations,
+        frame_time=frame_time,
+        units_scale=scale,
+    )

@@ -1,0 +1,439 @@
+"""Body volumes and measurements fitted to a skeleton's own bone lengths (memo §6.1).
+
+``fit_body(rest_pose, joint_map)`` encloses the body in the memo's 10 volumes (pelvis, torso,
+chest, head, upper and lower legs, upper arms), or 15 with ``detailed=True`` (plus neck,
+forearms, feet: the one-piece dress), and derives the ``BodyMeasurements`` garments are cut
+from, so a tall and a short skeleton both get garments that fit.
+
+Geometry. A limb volume is attached to the frame of the joint where its segment starts
+(``Volume.frame``); its local z runs along the bone towards the next joint, its local x is the
+body's forward direction made perpendicular to the bone (the left direction for a bone that
+points forward, the foot), and it is centred at mid-bone. It is an ellipsoid elongated along z
+with both ends cut a little past the joints: ``a_z`` is chosen so that the cross-section at a
+joint is ``JOINT_TAPER`` times the mid-bone one, so neighbouring volumes overlap at the joint
+while the outline keeps narrowing (no bulge past it). The trunk is three stacked ellipsoids
+(pelvis upright from crotch to waist; torso from the spine to the chest joint; chest from the
+chest joint up to the shoulders); the head is a sphere. A segment spanning two bones (CMU's neck:
+Neck -> Neck1 -> Head) rides on its first joint's frame.
+
+Missing optional roles fall back: no spine -> the torso starts at the pelvis; no neck -> the chest
+stops at the shoulders and the neck volume rides on the chest; no foot, lower arm or hand -> the
+segment before ends at its joint's first child (its own length from Winter's ratios if it has
+none), and the detailed body has no foot or forearm volume on that side.
+
+Sizes. Radii are anthropometric ratios of the skeleton's own lengths: limb radii of the bone's
+length, trunk widths of the hip-joint and shoulder-joint spacing, levels (waist, crotch,
+armpit) and the head of the stature ``H`` estimated from the leg (hip-knee-ankle = 0.491 H,
+ankle height 0.039 H; Winter, Biomechanics and Motor Control of Human Movement, table 4.1).
+
+Measurements are read back from the volumes (after overrides), in the root frame of the rest
+pose (``body.root.root_frame``): e.g. ``thigh_radius`` is the thigh volume's radius and
+``hip_ry`` the half width of the trunk volumes at hip level. Knee and ankle heights are those of
+the standing body (legs straight below the hip joints, lengths from the bones): in CMU's rest
+pose the legs are splayed about 20 deg, while garments are fitted to a standing body.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+import yaml
+
+from ..collision.volumes import ELLIPSOID, SPHERE, Volume, VolumeSet
+from ..transforms import quat_conjugate, quat_from_matrix, quat_multiply, quat_rotate, yaw_quat
+from .joint_map import config_file, validate_joint_map
+from .measurements import BodyMeasurements
+from .root import root_frame
+from .skeleton import SkeletonPose
+
+# Stature from the leg (Winter): hip-knee 0.245 H + knee-ankle 0.246 H; ankle above the floor 0.039 H.
+LEG_PER_STATURE = 0.491
+ANKLE_HEIGHT_PER_STATURE = 0.039
+# Bone lengths per stature (Winter), for a limb whose far joint the skeleton lacks.
+UPPER_ARM_PER_STATURE = 0.186
+FOREARM_PER_STATURE = 0.146
+# Levels relative to the hip joints, per stature.
+WAIST_ABOVE_HIP_JOINT = 0.10
+CROTCH_BELOW_HIP_JOINT = 0.045
+ARMPIT_BELOW_SHOULDER = 0.07
+# Radii: limbs per bone length (mid-bone), trunk per joint spacing or stature, head per stature.
+THIGH_RADIUS_PER_LENGTH = 0.20
+SHIN_RADIUS_PER_LENGTH = 0.135
+UPPER_ARM_RADIUS_PER_LENGTH = 0.15
+FOREARM_RADIUS_PER_LENGTH = 0.14
+FOOT_HEIGHT_PER_LENGTH = 0.25  # half height of the foot per ankle-to-toe length
+FOOT_WIDTH_PER_LENGTH = 0.33  # half width
+NECK_RADIUS_PER_STATURE = 0.034
+HEAD_RADIUS_PER_STATURE = 0.058
+HEAD_CENTRE_ABOVE_JOINT = 0.8  # head centre this many head radii along the head from the head joint
+WAIST_PER_HIP_WIDTH = 0.80  # waist breadth / hip breadth
+HIP_DEPTH_PER_WIDTH = 0.72
+WAIST_DEPTH_PER_WIDTH = 0.72
+CHEST_WIDTH_PER_SHOULDER = 0.85  # chest half width / shoulder-joint half spacing
+CHEST_DEPTH_PER_WIDTH = 0.75
+# Cross-section at a joint / mid-bone cross-section (limbs), and how far cuts reach past a joint.
+JOINT_TAPER = 0.7
+TRUNK_TAPER = 0.9
+CUT_PAST_JOINT = 0.15  # fraction of the half length
+
+BASIC_VOLUMES: tuple[str, ...] = (
+    "pelvis", "torso", "chest", "head",
+    "left_upper_leg", "right_upper_leg", "left_lower_leg", "right_lower_leg",
+    "left_upper_arm", "right_upper_arm",
+)
+DETAILED_VOLUMES: tuple[str, ...] = BASIC_VOLUMES + (
+    "neck", "left_lower_arm", "right_lower_arm", "left_foot", "right_foot",
+)
+OVERRIDE_KEYS = {"radii": 3, "cut": 2, "offset_position": 3}
+
+
+class BodyConfigError(ValueError):
+    """A body override is refused; the message names the source, the key and what is allowed."""
+
+
+@dataclass(frozen=True)
+class BodyOverrides:
+    """Per-volume replacements ``{volume: {radii|cut|offset_position: [...]}}`` and where they came from."""
+
+    volumes: Mapping[str, Mapping[str, tuple[float, ...]]]
+    source: str = "overrides"
+
+
+@dataclass(frozen=True)
+class Body:
+    volumes: VolumeSet
+    measurements: BodyMeasurements
+    joint_map: Mapping[str, str]
+    rest_pose: SkeletonPose
+
+
+def check_overrides(data: Any, source: str) -> BodyOverrides:
+    """Validate the structure of overrides (names, keys, list lengths, numbers)."""
+    if data is None:
+        return BodyOverrides({}, source)
+    if not isinstance(data, Mapping):
+        raise BodyConfigError(f"{source}: expected a mapping with the key 'volumes', got {type(data).__name__}")
+    unknown = [k for k in data if k != "volumes"]
+    if unknown:
+        raise BodyConfigError(f"{source}: unknown key(s) {', '.join(map(str, unknown))}; allowed: volumes")
+    volumes = data.get("volumes") or {}
+    if not isinstance(volumes, Mapping):
+        raise BodyConfigError(f"{source}: volumes must map volume names to overrides, got {type(volumes).__name__}")
+    checked: dict[str, dict[str, tuple[float, ...]]] = {}
+    for name, fields in volumes.items():
+        if name not in DETAILED_VOLUMES:
+            raise BodyConfigError(f"{source}: volumes.{name}: unknown volume; allowed: {', '.join(DETAILED_VOLUMES)}")
+        if not isinstance(fields, Mapping):
+            raise BodyConfigError(f"{source}: volumes.{name}: expected a mapping of {', '.join(OVERRIDE_KEYS)}")
+        checked[name] = {}
+        for key, value in fields.items():
+            if key not in OVERRIDE_KEYS:
+                raise BodyConfigError(f"{source}: volumes.{name}.{key}: unknown key; "
+                                      f"allowed: {', '.join(OVERRIDE_KEYS)}")
+            size = OVERRIDE_KEYS[key]
+            numbers = isinstance(value, (list, tuple)) and all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
+            if not numbers or len(value) != size:
+                raise BodyConfigError(f"{source}: volumes.{name}.{key}: got {value!r}; allowed: a list of {size} "
+                                      "finite numbers (m)")
+            checked[name][key] = tuple(float(v) for v in value)
+    return BodyOverrides(checked, source)
+
+
+def load_body_overrides(path: str | Path | None = None) -> BodyOverrides:
+    """Read ``config/body.yaml`` (or ``path``)."""
+    path = Path(path) if path is not None else config_file("body.yaml")
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except OSError as err:
+        raise BodyConfigError(f"{path}: cannot read body config: {err.strerror or err}") from None
+    except yaml.YAMLError as err:
+        raise BodyConfigError(f"{path}: not valid YAML: {err}") from None
+    return check_overrides(data, str(path))
+
+
+class _Fit:
+    """The rest pose seen from its root frame, and the volume builders."""
+
+    def __init__(self, pose: SkeletonPose, joint_map: Mapping[str, str]):
+        self.pose = pose
+        self.map = joint_map
+        self.origin, yaw = root_frame(pose, joint_map)
+        self.root_rotation = yaw_quat(yaw)
+        self.forward = quat_rotate(self.root_rotation, np.array([1.0, 0.0, 0.0]))
+        self.left = quat_rotate(self.root_rotation, np.array([0.0, 1.0, 0.0]))
+        self.up = np.array([0.0, 0.0, 1.0])
+
+    def world(self, role: str) -> np.ndarray:
+        return self.pose.frame(self.map[role])[0]
+
+    def local(self, point: np.ndarray) -> np.ndarray:
+        """World point -> root frame."""
+        return quat_rotate(quat_conjugate(self.root_rotation), np.asarray(point) - self.origin)
+
+    def bone_end(self, role: str, next_role: str | None) -> np.ndarray | None:
+        """Where the segment starting at ``role`` ends: the next role's joint, else the first child away from it."""
+        if next_role is not None and next_role in self.map:
+            return self.world(next_role)
+        skeleton = self.pose.skeleton
+        start = self.world(role)
+        frontier = skeleton.children(skeleton.index(self.map[role]))
+        while frontier:
+            away = [c for c in frontier if np.linalg.norm(self.pose.positions[c] - start) > 1e-6]
+            if away:
+                return self.pose.positions[away[0]]
+            frontier = [g for c in frontier for g in skeleton.children(c)]
+        return None
+
+    def axes(self, axis: np.ndarray) -> np.ndarray:
+        """Rotation matrix with z = axis and x = forward made perpendicular (left for a forward bone)."""
+        z = axis / np.linalg.norm(axis)
+        x = self.forward - np.dot(self.forward, z) * z
+        if np.linalg.norm(x) > 0.5:
+            x /= np.linalg.norm(x)
+            y = np.cross(z, x)
+        else:
+            y = self.left - np.dot(self.left, z) * z
+            y /= np.linalg.norm(y)
+            x = np.cross(y, z)
+        return np.column_stack([x, y, z])
+
+    def attach(self, name: str, kind: int, frame_role: str, centre: np.ndarray, axis: np.ndarray,
+               radii: tuple[float, float, float], cut: tuple[float, float] = (-np.inf, np.inf)) -> Volume:
+        """A volume centred at ``centre`` with local z along ``axis`` (world, rest pose), on ``frame_role``'s frame."""
+        joint_position, joint_rotation = self.pose.frame(self.map[frame_role])
+        inverse = quat_conjugate(joint_rotation)
+        rotation = quat_from_matrix(self.axes(axis))
+        return Volume(
+            name=name, kind=kind, frame=self.map[frame_role],
+            radii=tuple(float(r) for r in radii), cut=tuple(float(c) for c in cut),
+            offset_position=tuple(float(v) for v in quat_rotate(inverse, centre - joint_position)),
+            offset_rotation=tuple(float(v) for v in quat_multiply(inverse, rotation)),
+        )
+
+    def volume(self, name: str, frame_role: str, start: np.ndarray, axis: np.ndarray, s0: float, s1: float,
+               rx: float, ry: float, taper: float) -> Volume:
+        """Ellipsoid over ``[s0, s1]`` along ``axis`` from ``start`` (world), cut a little past both ends."""
+        unit = _unit(axis)
+        half = 0.5 * (s1 - s0)
+        a_z = half / math.sqrt(1.0 - taper**2)
+        past = CUT_PAST_JOINT * half
+        return self.attach(name, ELLIPSOID, frame_role, start + unit * 0.5 * (s0 + s1), unit, (rx, ry, a_z),
+                           (-half - past, half + past))
+
+    def bone(self, name: str, role: str, next_role: str | None, radius_per_length: float,
+             fallback_length: float) -> Volume:
+        start = self.world(role)
+        end = self.bone_end(role, next_role)
+        if end is None:  # a leaf limb joint: the bone runs on along its parent's direction
+            parent = self.pose.skeleton.parents[self.pose.skeleton.index(self.map[role])]
+            end = start + fallback_length * _unit(start - self.pose.positions[parent])
+        length = float(np.linalg.norm(end - start))
+        r = radius_per_length * length
+        return self.volume(name, role, start, end - start, 0.0, length, r, r, JOINT_TAPER)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v)
+
+
+def _fit_volumes(fit: _Fit, detailed: bool) -> tuple[list[Volume], dict[str, float]]:
+    sides = ("left", "right")
+    hip_joints = [fit.local(fit.world(f"{s}_upper_leg")) for s in sides]
+    knees = [fit.world(f"{s}_lower_leg") for s in sides]
+    thigh = [float(np.linalg.norm(k - fit.world(f"{s}_upper_leg"))) for s, k in zip(sides, knees)]
+    ankles = [fit.bone_end(f"{s}_lower_leg", f"{s}_foot") for s in sides]
+    shin = [float(np.linalg.norm(a - k)) if a is not None else t for a, k, t in zip(ankles, knees, thigh)]
+    stature = (np.mean(thigh) + np.mean(shin)) / LEG_PER_STATURE
+    hip_joint_z = float(np.mean([h[2] for h in hip_joints]))
+    leg_y = float(np.mean([abs(h[1]) for h in hip_joints]))
+    shoulders = [fit.local(fit.world(f"{s}_upper_arm")) for s in sides]
+    shoulder_z = float(np.mean([p[2] for p in shoulders]))
+    shoulder_y = float(np.mean([abs(p[1]) for p in shoulders]))
+
+    volumes: list[Volume] = []
+    for s, t, sh in zip(sides, thigh, shin):
+        volumes.append(fit.bone(f"{s}_upper_leg", f"{s}_upper_leg", f"{s}_lower_leg", THIGH_RADIUS_PER_LENGTH, t))
+        volumes.append(fit.bone(f"{s}_lower_leg", f"{s}_lower_leg", f"{s}_foot", SHIN_RADIUS_PER_LENGTH, sh))
+    for s in sides:
+        volumes.append(fit.bone(f"{s}_upper_arm", f"{s}_upper_arm", f"{s}_lower_arm",
+                                UPPER_ARM_RADIUS_PER_LENGTH, UPPER_ARM_PER_STATURE * stature))
+    thigh_radius = THIGH_RADIUS_PER_LENGTH * float(np.mean(thigh))
+
+    # Pelvis: upright, widest at the hip joints, from the crotch to the waist, covering the thigh tops.
+    hip_ry = leg_y + thigh_radius
+    waist_rise = WAIST_ABOVE_HIP_JOINT * stature
+    pelvis_a_z = waist_rise / math.sqrt(1.0 - WAIST_PER_HIP_WIDTH**2)
+    crotch_drop = CROTCH_BELOW_HIP_JOINT * stature
+    centre = fit.origin + quat_rotate(fit.root_rotation, np.array([0.0, 0.0, hip_joint_z]))
+    volumes.append(fit.attach("pelvis", ELLIPSOID, "pelvis", centre, fit.up,
+                              (HIP_DEPTH_PER_WIDTH * hip_ry, hip_ry, pelvis_a_z), (-crotch_drop, waist_rise)))
+
+    # Torso (lower back to chest joint) and chest (chest joint to the shoulders or the neck).
+    waist_ry = WAIST_PER_HIP_WIDTH * hip_ry
+    spine_role = "spine" if "spine" in fit.map else "pelvis"
+    chest = fit.world("chest")
+    spine_start = fit.world(spine_role)
+    torso_length = float(np.linalg.norm(chest - spine_start))
+    if torso_length > 1e-6:
+        volumes.append(fit.volume("torso", spine_role, spine_start, chest - spine_start, 0.0, torso_length,
+                                  WAIST_DEPTH_PER_WIDTH * waist_ry, waist_ry, TRUNK_TAPER))
+    else:  # the chest joint sits at the pelvis: the torso stands upright from there to the waist
+        volumes.append(fit.volume("torso", "pelvis", chest, fit.up, 0.0, waist_rise, WAIST_DEPTH_PER_WIDTH * waist_ry,
+                                  waist_ry, TRUNK_TAPER))
+    head = fit.world("head")
+    neck_base = fit.world("neck") if "neck" in fit.map else head
+    chest_axis = _unit(neck_base - chest)
+    shoulder_mid = fit.origin + quat_rotate(fit.root_rotation, np.array([0.0, 0.0, shoulder_z]))
+    shoulder_top = float(np.dot(shoulder_mid - chest, chest_axis))
+    if "neck" in fit.map:
+        chest_top = max(float(np.dot(neck_base - chest, chest_axis)), shoulder_top)
+    else:  # up to the shoulders, leaving the neck below the head
+        chest_top = min(shoulder_top, 0.8 * float(np.dot(head - chest, chest_axis)))
+    chest_ry = CHEST_WIDTH_PER_SHOULDER * shoulder_y
+    volumes.append(fit.volume("chest", "chest", chest, chest_axis, 0.0, chest_top,
+                              CHEST_DEPTH_PER_WIDTH * chest_ry, chest_ry, TRUNK_TAPER))
+
+    # Head: a sphere along the head (towards its child, else up from the neck).
+    head_radius = HEAD_RADIUS_PER_STATURE * stature
+    head_end = fit.bone_end("head", None)
+    head_axis = _unit(head_end - head) if head_end is not None and np.linalg.norm(head_end - head) > 0.3 * head_radius \
+        else _unit(head - (neck_base if "neck" in fit.map else chest))
+    volumes.append(fit.attach("head", SPHERE, "head", head + HEAD_CENTRE_ABOVE_JOINT * head_radius * head_axis,
+                              head_axis, (head_radius,) * 3))
+
+    if detailed:
+        neck_role = "neck" if "neck" in fit.map else "chest"
+        neck_start = fit.world(neck_role) if neck_role == "neck" else chest + chest_top * chest_axis
+        neck_radius = NECK_RADIUS_PER_STATURE * stature
+        volumes.append(fit.volume("neck", neck_role, neck_start, head - neck_start, 0.0,
+                                  float(np.linalg.norm(head - neck_start)), neck_radius, neck_radius, TRUNK_TAPER))
+        for s in sides:
+            if f"{s}_lower_arm" in fit.map:
+                volumes.append(fit.bone(f"{s}_lower_arm", f"{s}_lower_arm", f"{s}_hand",
+                                        FOREARM_RADIUS_PER_LENGTH, FOREARM_PER_STATURE * stature))
+            if f"{s}_foot" in fit.map:
+                volumes.append(_foot(fit, s))
+    levels = {"stature": stature, "hip_joint_z": hip_joint_z, "leg_y": leg_y, "thigh": float(np.mean(thigh)),
+              "shin": float(np.mean(shin)), "shoulder_z": shoulder_z, "shoulder_y": shoulder_y}
+    return volumes, levels
+
+
+def _foot(fit: _Fit, side: str) -> Volume:
+    """Ankle to toe; the heel reaches behind the ankle, the toes past the toe joint."""
+    role = f"{side}_foot"
+    ankle = fit.world(role)
+    toe = fit.bone_end(role, None)
+    if toe is None:
+        toe = ankle + 0.13 * fit.forward
+    length = float(np.linalg.norm(toe - ankle))
+    return fit.volume(role, role, ankle, toe - ankle, -0.35 * length, 1.3 * length,
+                      FOOT_HEIGHT_PER_LENGTH * length, FOOT_WIDTH_PER_LENGTH * length, JOINT_TAPER)
+
+
+def _apply_overrides(volumes: list[Volume], overrides: BodyOverrides) -> list[Volume]:
+    fitted = {v.name: v for v in volumes}
+    for name, fields in overrides.volumes.items():
+        where = f"{overrides.source}: volumes.{name}"
+        if name not in fitted:
+            raise BodyConfigError(f"{where}: this body has no such volume (the 15-volume set needs detailed=True); "
+                                  f"fitted: {', '.join(fitted)}")
+        volume = fitted[name]
+        radii = fields.get("radii", volume.radii)
+        cut = fields.get("cut", volume.cut)
+        if any(r <= 0.0 for r in radii):
+            raise BodyConfigError(f"{where}.radii: got {list(radii)}; allowed: three positive lengths (m)")
+        if volume.kind == SPHERE and "radii" in fields and not np.allclose(radii, radii[0]):
+            raise BodyConfigError(f"{where}.radii: got {list(radii)}; allowed: a sphere's three radii are equal")
+        if "cut" in fields and volume.kind != ELLIPSOID:
+            raise BodyConfigError(f"{where}.cut: only ellipsoids are cut; {name} is a sphere")
+        if volume.kind == ELLIPSOID and not -radii[2] <= cut[0] < cut[1] <= radii[2]:
+            raise BodyConfigError(f"{where}.cut: got {list(cut)} with a_z = {radii[2]:.4g} m; allowed: "
+                                  "-a_z <= cut[0] < cut[1] <= a_z (local z, m), inside the ellipsoid")
+        fitted[name] = replace(volume, radii=tuple(radii), cut=tuple(cut),
+                               offset_position=fields.get("offset_position", volume.offset_position))
+    return [fitted[v.name] for v in volumes]
+
+
+def _measure(fit: _Fit, volumes: VolumeSet, levels: dict[str, float]) -> BodyMeasurements:
+    """Measurements read from the fitted volumes in the rest pose's root frame."""
+    by_name = {v.name: v for v in volumes.volumes}
+    positions, rotations = volumes.world_poses(*_frame_poses(fit.pose, volumes.frames))
+
+    def placed(name: str):
+        k = volumes.names().index(name)
+        centre = fit.local(positions[k])
+        axis = quat_rotate(quat_conjugate(fit.root_rotation), quat_rotate(rotations[k], np.array([0.0, 0.0, 1.0])))
+        return by_name[name], centre, axis
+
+    def half_widths(z: float) -> tuple[float, float]:
+        """Largest half depth and half width of the trunk volumes' cross-sections at height z."""
+        rx = ry = 0.0
+        for name in ("pelvis", "torso", "chest"):
+            volume, centre, axis = placed(name)
+            zl = (z - centre[2]) / max(axis[2], 1e-6)
+            if volume.cut[0] <= zl <= volume.cut[1]:
+                f = math.sqrt(max(0.0, 1.0 - (zl / volume.radii[2]) ** 2))
+                rx, ry = max(rx, f * volume.radii[0]), max(ry, f * volume.radii[1])
+        return rx, ry
+
+    def section(name: str, zl: float) -> float:
+        volume = by_name[name]
+        return max(volume.radii[:2]) * math.sqrt(max(0.0, 1.0 - (zl / volume.radii[2]) ** 2))
+
+    stature = levels["stature"]
+    pelvis, pelvis_centre, pelvis_axis = placed("pelvis")
+    hip_z = float(pelvis_centre[2])
+    waist_z = float(pelvis_centre[2] + pelvis.cut[1] * pelvis_axis[2])
+    crotch_z = float(pelvis_centre[2] + pelvis.cut[0] * pelvis_axis[2])
+    chest_z = levels["shoulder_z"] - ARMPIT_BELOW_SHOULDER * stature
+    knee_z = levels["hip_joint_z"] - levels["thigh"]
+    ankle_z = knee_z - levels["shin"]
+    thighs = [by_name[f"{s}_upper_leg"] for s in ("left", "right")]
+    shins = [by_name[f"{s}_lower_leg"] for s in ("left", "right")]
+    # Bone volumes are centred at mid-bone: the knee is at +thigh/2 of the thigh's, the ankle at +shin/2.
+    knee_radius = max(max(max(v.radii[:2]) for v in shins), max(section(v.name, 0.5 * levels["thigh"]) for v in thighs))
+    ankle_radius = max(section(v.name, 0.5 * levels["shin"]) for v in shins)
+    head, head_centre, _ = placed("head")
+    height = float(head_centre[2] + head.radii[0]) - (ankle_z - ANKLE_HEIGHT_PER_STATURE * stature)
+    waist_rx, waist_ry = half_widths(waist_z)
+    hip_rx, hip_ry = half_widths(hip_z)
+    chest_rx, chest_ry = half_widths(chest_z)
+    return BodyMeasurements(**{k: float(v) for k, v in dict(
+        height=height,
+        waist_z=waist_z, waist_rx=waist_rx, waist_ry=waist_ry,
+        hip_z=hip_z, hip_rx=hip_rx, hip_ry=hip_ry,
+        crotch_z=crotch_z, leg_y=levels["leg_y"],
+        thigh_radius=float(np.mean([max(v.radii[:2]) for v in thighs])),
+        knee_z=knee_z, knee_radius=float(knee_radius), ankle_z=ankle_z, ankle_radius=float(ankle_radius),
+        chest_z=chest_z, chest_rx=chest_rx, chest_ry=chest_ry,
+        shoulder_z=levels["shoulder_z"], shoulder_y=levels["shoulder_y"],
+    ).items()})
+
+
+def _frame_poses(pose: SkeletonPose, frames: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
+    index = [pose.skeleton.index(f) for f in frames]
+    return pose.positions[index], pose.rotations[index]
+
+
+def fit_body(rest_pose: SkeletonPose, joint_map: Mapping[str, str], detailed: bool = False,
+             overrides: BodyOverrides | Mapping | None = None) -> Body:
+    """Fit the bounding volumes and measurements of the body the skeleton's rest pose defines.
+
+    ``overrides``: a ``BodyOverrides`` (``load_body_overrides``) or a mapping
+    ``{volume: {radii: [x, y, z], cut: [lo, hi], offset_position: [x, y, z]}}`` (metres, the
+    volume's local frame / its joint frame), applied after fitting.
+    """
+    joint_map = validate_joint_map(joint_map, rest_pose.skeleton)
+    if not isinstance(overrides, BodyOverrides):
+        overrides = check_overrides({"volumes": overrides} if overrides else None, "overrides")
+    fit = _Fit(rest_pose, joint_map)
+    volumes, levels = _fit_volumes(fit, detailed)
+    order = DETAILED_VOLUMES if detailed else BASIC_VOLUMES
+    volumes.sort(key=lambda v: order.index(v.name))
+    volume_set = VolumeSet(tuple(_apply_overrides(volumes, overrides)))
+    return Body(volume_set, _measure(fit, volume_set, levels), joint_map, rest_pose)

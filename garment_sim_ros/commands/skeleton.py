@@ -1,0 +1,100 @@
+"""``garment-sim skeleton FILE.bvh``: the joint map, fitted volumes and clip info of a BVH clip."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import numpy as np
+
+from ..body.bvh import UNIT_SCALES, BvhError, Clip, load_bvh
+from ..body.fitting import Body, BodyConfigError, fit_body, load_body_overrides
+from ..body.joint_map import JointMapError, auto_joint_map, load_joint_map
+from ..collision.volumes import KIND_NAMES
+
+HELP = ("Read a BVH clip (converted to REP-103 z-up metres) and print the detected joint map, the body "
+        "volumes fitted to its skeleton and clip info (frames, fps, duration, mean horizontal pelvis speed).")
+
+_KIND_LABELS = {code: label for label, code in KIND_NAMES.items()}
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("bvh", metavar="FILE.bvh", help="BVH clip to read")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--units", default="auto",
+                        help=f"file length unit: auto (from the skeleton's height), {', '.join(UNIT_SCALES)}, "
+                             "or metres per unit")
+    parser.add_argument("--skip-first-frame", action="store_true", help="drop frame 0 (a T-pose in CMU clips)")
+    parser.add_argument("--joint-map", metavar="YAML", help="joint map file instead of the automatic mapper")
+    parser.add_argument("--detailed", action="store_true", help="fit the 15-volume body (neck, forearms, feet)")
+    parser.add_argument("--body-config", metavar="YAML", help="volume overrides (default: config/body.yaml)")
+
+
+def _units(text: str) -> str | float:
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def root_speed(clip: Clip, pelvis: str) -> float:
+    """Mean horizontal speed of the pelvis over the clip, m/s (path length / duration)."""
+    if clip.frames < 2:
+        return 0.0
+    path = clip.joint_trajectory(pelvis)[:, :2]
+    return float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum() / clip.duration)
+
+
+def summary(clip: Clip, body: Body) -> dict:
+    return {
+        "file": clip.path,
+        "joint_map": dict(body.joint_map),
+        "volumes": [
+            {"name": v.name, "kind": _KIND_LABELS[v.kind], "frame": v.frame,
+             "radii": [round(r, 4) for r in v.radii],
+             "cut": [round(c, 4) if np.isfinite(c) else None for c in v.cut],
+             "offset_position": [round(c, 4) for c in v.offset_position]}
+            for v in body.volumes.volumes
+        ],
+        "frames": clip.frames,
+        "fps": round(clip.fps, 4),
+        "duration_s": round(clip.duration, 4),
+        "root_speed_mps": round(root_speed(clip, body.joint_map["pelvis"]), 4),
+        "units_scale": clip.units_scale,
+        "measurements": {k: round(float(v), 4) for k, v in vars(body.measurements).items()},
+    }
+
+
+def _print_text(info: dict) -> None:
+    print(f"{info['file']}: {info['frames']} frames at {info['fps']:g} fps, {info['duration_s']:.2f} s, "
+          f"pelvis {info['root_speed_mps']:.2f} m/s, {info['units_scale']:g} m per file unit")
+    print("joint map:")
+    for role, frame in info["joint_map"].items():
+        print(f"  {role:<16} {frame}")
+    print("volumes (radii in cm):")
+    for v in info["volumes"]:
+        radii = " ".join(f"{100 * r:5.1f}" for r in v["radii"])
+        print(f"  {v['name']:<16} {v['kind']:<9} on {v['frame']:<16} {radii}")
+    print("measurements (m, root frame):")
+    for key, value in info["measurements"].items():
+        print(f"  {key:<13} {value:7.3f}")
+
+
+def run(args) -> int:
+    try:
+        clip = load_bvh(args.bvh, units=_units(args.units), skip_first_frame=args.skip_first_frame)
+        rest = clip.rest_pose()
+        if args.joint_map:
+            joint_map = load_joint_map(args.joint_map, clip.skeleton)
+        else:
+            joint_map = auto_joint_map(clip.skeleton, rest.positions)
+        body = fit_body(rest, joint_map, detailed=args.detailed, overrides=load_body_overrides(args.body_config))
+        info = summary(clip, body)
+    except (BvhError, JointMapError, BodyConfigError, FileNotFoundError, ValueError) as err:
+        print(f"garment-sim skeleton: {err}", file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps(info))
+    else:
+        _print_text(info)
+    return 0

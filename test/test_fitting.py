@@ -1,0 +1,291 @@
+"""Body volumes and measurements fitted from a skeleton; the ``garment-sim skeleton`` command."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from garment_sim_ros import cli
+from garment_sim_ros.body.bvh import load_bvh
+from garment_sim_ros.body.fitting import (
+    BASIC_VOLUMES, DETAILED_VOLUMES, BodyConfigError, fit_body, load_body_overrides,
+)
+from garment_sim_ros.body.joint_map import REQUIRED_ROLES, auto_joint_map
+from garment_sim_ros.body.procedural import WALKER_JOINT_MAP, ProceduralCharacter
+from garment_sim_ros.body.root import root_frame
+from garment_sim_ros.body.skeleton import SkeletonPose
+from garment_sim_ros.collision.volumes import ELLIPSOID, SPHERE
+from garment_sim_ros.transforms import quat_conjugate, quat_rotate, yaw_quat
+
+DATA = Path(__file__).parent / "data"
+CLIP_NAMES = ("cmu_01_01_jumps_turnaround.bvh", "cmu_131_01_walk_mjstyle.bvh")
+# Volume -> (start role, end role) of the bone it is centred on.
+BONES = {
+    **{f"{s}_{part}": (f"{s}_{part}", f"{s}_{end}") for s in ("left", "right")
+       for part, end in (("upper_leg", "lower_leg"), ("lower_leg", "foot"), ("upper_arm", "lower_arm"),
+                         ("lower_arm", "hand"))},
+    "torso": ("spine", "chest"),
+}
+# A segment over two bones (CMU's neck: Neck -> Neck1 -> Head) follows its first joint's frame: its
+# far end drifts from the next role's joint by what the middle joint bends (mm for the neck).
+MULTI_BONE = {"neck": ("neck", "head", 0.02)}
+
+
+@pytest.fixture(scope="module", params=CLIP_NAMES)
+def clip(request):
+    return load_bvh(DATA / request.param)
+
+
+@pytest.fixture(scope="module")
+def fitted(clip):
+    rest = clip.rest_pose()
+    joint_map = auto_joint_map(clip.skeleton, rest.positions)
+    return clip, fit_body(rest, joint_map), fit_body(rest, joint_map, detailed=True)
+
+
+def frame_poses(pose: SkeletonPose, frames):
+    index = [pose.skeleton.index(f) for f in frames]
+    return pose.positions[index], pose.rotations[index]
+
+
+def in_root_frame(body, points):
+    origin, yaw = root_frame(body.rest_pose, body.joint_map)
+    return quat_rotate(quat_conjugate(yaw_quat(yaw)), np.asarray(points) - origin)
+
+
+def test_ten_and_fifteen_volumes(fitted):
+    _, basic, detailed = fitted
+    assert basic.volumes.names() == list(BASIC_VOLUMES) and len(basic.volumes) == 10
+    assert detailed.volumes.names() == list(DETAILED_VOLUMES) and len(detailed.volumes) == 15
+    for v in detailed.volumes.volumes:
+        assert v.kind == (SPHERE if v.name == "head" else ELLIPSOID)
+        if v.kind == ELLIPSOID:  # elongated along the segment (local z), both ends cut inside the ellipsoid
+            assert v.radii[2] > max(v.radii[:2])
+            assert -v.radii[2] < v.cut[0] < 0.0 < v.cut[1] < v.radii[2]
+
+
+def test_sizes_are_humanly_plausible(fitted):
+    _, body, _ = fitted
+    volumes = {v.name: v for v in body.volumes.volumes}
+    m = body.measurements
+    assert 1.5 <= m.height <= 1.9
+    for side in ("left", "right"):
+        assert 0.05 <= max(volumes[f"{side}_upper_leg"].radii[:2]) <= 0.12
+        assert 0.03 <= max(volumes[f"{side}_upper_arm"].radii[:2]) <= 0.07
+    assert 0.25 <= 2 * volumes["pelvis"].radii[1] <= 0.45
+    assert 0.25 <= 2 * m.hip_ry <= 0.45
+    assert 0.08 <= volumes["head"].radii[0] <= 0.13
+    # Sanity of the proportions: depth < width on the trunk, shin thinner than thigh.
+    assert m.hip_rx < m.hip_ry and m.waist_rx < m.waist_ry and m.chest_rx < m.chest_ry
+    assert m.ankle_radius < m.knee_radius < m.thigh_radius
+
+
+def test_left_volumes_are_on_the_left_of_the_root_frame(fitted):
+    _, _, body = fitted
+    centres, _ = body.volumes.world_poses(*frame_poses(body.rest_pose, body.volumes.frames))
+    local = in_root_frame(body, centres)
+    for name, centre in zip(body.volumes.names(), local):
+        if name.startswith("left_"):
+            assert centre[1] > 0.03, name
+        elif name.startswith("right_"):
+            assert centre[1] < -0.03, name
+        else:
+            assert abs(centre[1]) < 0.02, name
+
+
+def test_volumes_are_centred_on_their_bones_in_every_pose(fitted):
+    clip, _, body = fitted
+    names = body.volumes.names()
+    for i in (0, clip.frames // 3, clip.frames - 1):
+        pose = clip.pose(i)
+        centres, rotations = body.volumes.world_poses(*frame_poses(pose, body.volumes.frames))
+        for name, (start_role, end_role) in BONES.items():
+            k = names.index(name)
+            start = pose.frame(body.joint_map[start_role])[0]
+            end = pose.frame(body.joint_map[end_role])[0]
+            np.testing.assert_allclose(centres[k], 0.5 * (start + end), atol=1e-9, err_msg=name)
+            axis = quat_rotate(rotations[k], [0.0, 0.0, 1.0])
+            np.testing.assert_allclose(axis, (end - start) / np.linalg.norm(end - start), atol=1e-9, err_msg=name)
+        for name, (start_role, end_role, tolerance) in MULTI_BONE.items():
+            start = pose.frame(body.joint_map[start_role])[0]
+            end = pose.frame(body.joint_map[end_role])[0]
+            assert np.linalg.norm(centres[names.index(name)] - 0.5 * (start + end)) < tolerance
+
+
+def local_point(body, name, point, pose=None):
+    pose = pose or body.rest_pose
+    k = body.volumes.names().index(name)
+    centres, rotations = body.volumes.world_poses(*frame_poses(pose, body.volumes.frames))
+    return quat_rotate(quat_conjugate(rotations[k]), np.asarray(point) - centres[k])
+
+
+def inside(volume, p) -> bool:
+    r = np.asarray(volume.radii)
+    return volume.cut[0] <= p[2] <= volume.cut[1] and float(np.sum((p / r) ** 2)) < 1.0
+
+
+def test_neighbours_overlap_at_the_joints_and_keep_narrowing(fitted):
+    _, body, _ = fitted
+    volumes = {v.name: v for v in body.volumes.volumes}
+    for side in ("left", "right"):
+        knee = body.rest_pose.frame(body.joint_map[f"{side}_lower_leg"])[0]
+        for name in (f"{side}_upper_leg", f"{side}_lower_leg"):
+            assert inside(volumes[name], local_point(body, name, knee)), name
+        thigh = volumes[f"{side}_upper_leg"]
+        knee_z = local_point(body, thigh.name, knee)[2]
+        section = lambda z: thigh.radii[0] * np.sqrt(1 - (z / thigh.radii[2]) ** 2)  # noqa: E731
+        assert section(thigh.cut[1]) < section(knee_z) < thigh.radii[0]
+        # The thigh reaches past the knee by less than the shin's radius: no bulge below the knee.
+        assert thigh.cut[1] - knee_z < volumes[f"{side}_lower_leg"].radii[0]
+    # The hip joints are inside the pelvis volume, the pelvis reaches the torso.
+    for side in ("left", "right"):
+        hip = body.rest_pose.frame(body.joint_map[f"{side}_upper_leg"])[0]
+        assert inside(volumes["pelvis"], local_point(body, "pelvis", hip))
+
+
+def test_measurements_agree_with_the_volumes(fitted):
+    _, body, _ = fitted
+    volumes = {v.name: v for v in body.volumes.volumes}
+    m = body.measurements
+    thighs = [volumes[f"{s}_upper_leg"].radii[0] for s in ("left", "right")]
+    assert m.thigh_radius == pytest.approx(np.mean(thighs))
+    pelvis_centre = in_root_frame(body, body.volumes.world_poses(
+        *frame_poses(body.rest_pose, body.volumes.frames))[0][body.volumes.names().index("pelvis")])
+    assert m.hip_z == pytest.approx(pelvis_centre[2])
+    assert m.hip_ry >= volumes["pelvis"].radii[1] - 1e-12 and m.hip_rx >= volumes["pelvis"].radii[0] - 1e-12
+    assert m.waist_z == pytest.approx(pelvis_centre[2] + volumes["pelvis"].cut[1])
+    assert m.crotch_z == pytest.approx(pelvis_centre[2] + volumes["pelvis"].cut[0])
+    # Joint levels from the skeleton: shoulders, hips; legs straight below the hip joints.
+    rest = body.rest_pose
+    shoulders = in_root_frame(body, [rest.frame(body.joint_map[f"{s}_upper_arm"])[0] for s in ("left", "right")])
+    assert m.shoulder_z == pytest.approx(shoulders[:, 2].mean())
+    assert m.shoulder_y == pytest.approx(np.abs(shoulders[:, 1]).mean())
+    hips = [rest.frame(body.joint_map[f"{s}_upper_leg"])[0] for s in ("left", "right")]
+    knees = [rest.frame(body.joint_map[f"{s}_lower_leg"])[0] for s in ("left", "right")]
+    thigh_length = np.mean([np.linalg.norm(k - h) for h, k in zip(hips, knees)])
+    assert m.knee_z == pytest.approx(in_root_frame(body, hips)[:, 2].mean() - thigh_length)
+
+
+@pytest.mark.parametrize("factor", [0.8, 1.2])
+def test_scaled_skeleton_scales_the_body(fitted, factor):
+    _, body, _ = fitted
+    rest = body.rest_pose
+    scaled_rest = SkeletonPose(rest.skeleton, rest.positions * factor, rest.rotations.copy())
+    scaled = fit_body(scaled_rest, body.joint_map)
+    expected = asdict(body.measurements.scaled(factor))
+    for key, value in asdict(scaled.measurements).items():
+        assert value == pytest.approx(expected[key], rel=1e-9, abs=1e-12), key
+    np.testing.assert_allclose(scaled.volumes.radii, body.volumes.radii * factor, rtol=1e-9)
+    np.testing.assert_allclose(scaled.volumes.cuts, body.volumes.cuts * factor, rtol=1e-9)
+    np.testing.assert_allclose(scaled.volumes.offset_positions, body.volumes.offset_positions * factor,
+                               rtol=1e-9, atol=1e-12)
+
+
+def test_walker_body_hand_computed():
+    # The walker's left thigh: hip (0, 0.09, 0.90), knee 0.42 m below; radius 0.20 x 0.42, centred mid-bone.
+    rest = ProceduralCharacter().rest_pose()
+    body = fit_body(rest, WALKER_JOINT_MAP)
+    thigh = body.volumes.volumes[body.volumes.names().index("left_upper_leg")]
+    assert thigh.frame == "left_hip"
+    np.testing.assert_allclose(thigh.radii[:2], [0.084, 0.084])
+    np.testing.assert_allclose(thigh.offset_position, [0.0, 0.0, -0.21], atol=1e-12)
+    # Ellipsoid tapering to 0.7 of its radius at the joints: a_z = 0.21 / sqrt(1 - 0.49).
+    assert thigh.radii[2] == pytest.approx(0.21 / np.sqrt(0.51))
+    # Stature from the leg: (0.42 + 0.40) / 0.491 = 1.670 m; the walker is a 1.75 m adult.
+    assert body.measurements.height == pytest.approx(1.75, abs=0.05)
+    assert body.measurements.leg_y == pytest.approx(0.09)
+    assert body.measurements.knee_z == pytest.approx(-0.05 - 0.42)
+    assert body.measurements.ankle_z == pytest.approx(-0.05 - 0.42 - 0.40)
+
+
+def test_required_roles_alone_are_enough(fitted):
+    _, body, _ = fitted
+    minimal = {role: body.joint_map[role] for role in REQUIRED_ROLES}
+    reduced = fit_body(body.rest_pose, minimal, detailed=True)
+    names = reduced.volumes.names()
+    assert set(BASIC_VOLUMES) | {"neck"} == set(names)  # no forearms or feet without their joints
+    torso = reduced.volumes.volumes[names.index("torso")]
+    assert torso.frame == body.joint_map["pelvis"]
+    assert reduced.measurements.thigh_radius == pytest.approx(body.measurements.thigh_radius, rel=0.05)
+
+
+# --- overrides ------------------------------------------------------------------------------------
+
+def test_default_body_config_has_no_overrides(fitted):
+    _, body, _ = fitted
+    overrides = load_body_overrides()
+    assert dict(overrides.volumes) == {}
+    again = fit_body(body.rest_pose, body.joint_map, overrides=overrides)
+    np.testing.assert_array_equal(again.volumes.radii, body.volumes.radii)
+
+
+def test_override_changes_the_volume_and_the_measurement(fitted, tmp_path):
+    _, body, _ = fitted
+    path = tmp_path / "body.yaml"
+    path.write_text("volumes:\n  left_upper_leg: {radii: [0.1, 0.1, 0.3]}\n"
+                    "  right_upper_leg: {radii: [0.1, 0.1, 0.3]}\n"
+                    "  pelvis: {offset_position: [0.0, 0.0, -0.12], cut: [-0.1, 0.2]}\n")
+    changed = fit_body(body.rest_pose, body.joint_map, overrides=load_body_overrides(path))
+    volumes = {v.name: v for v in changed.volumes.volumes}
+    assert volumes["left_upper_leg"].radii == (0.1, 0.1, 0.3)
+    assert changed.measurements.thigh_radius == pytest.approx(0.1)
+    assert volumes["pelvis"].cut == (-0.1, 0.2) and volumes["pelvis"].offset_position == (0.0, 0.0, -0.12)
+    assert changed.measurements.waist_z == pytest.approx(-0.12 + 0.2)
+
+
+@pytest.mark.parametrize("text,pattern", [
+    ("volumes:\n  tail: {radii: [0.1, 0.1, 0.1]}", r"volumes\.tail: unknown volume; allowed: pelvis, torso"),
+    ("volumes:\n  pelvis: {radius: 0.1}",
+     r"volumes\.pelvis\.radius: unknown key; allowed: radii, cut, offset_position"),
+    ("volumes:\n  pelvis: {radii: [0.1, -0.2, 0.3]}",
+     r"volumes\.pelvis\.radii: got \[0\.1, -0\.2, 0\.3\]; allowed: three positive"),
+    ("volumes:\n  pelvis: {cut: [-0.5, 0.1]}",
+     r"volumes\.pelvis\.cut: got \[-0\.5, 0\.1\] with a_z = .*inside the ellipsoid"),
+    ("volumes:\n  pelvis: {cut: [0.1, -0.1]}", r"volumes\.pelvis\.cut: .*-a_z <= cut\[0\] < cut\[1\] <= a_z"),
+    ("volumes:\n  head: {cut: [-0.05, 0.05]}", r"volumes\.head\.cut: only ellipsoids are cut"),
+    ("volumes:\n  neck: {radii: [0.05, 0.05, 0.1]}", r"volumes\.neck: this body has no such volume.*detailed=True"),
+    ("volumes:\n  pelvis: {radii: [0.1, 0.1]}", r"volumes\.pelvis\.radii: got \[0\.1, 0\.1\]; allowed: a list of 3"),
+    ("skin: {}", r"unknown key\(s\) skin; allowed: volumes"),
+])
+def test_bad_overrides_name_the_file_and_key(fitted, tmp_path, text, pattern):
+    _, body, _ = fitted
+    path = tmp_path / "body.yaml"
+    path.write_text(text)
+    with pytest.raises(BodyConfigError, match=pattern) as info:
+        fit_body(body.rest_pose, body.joint_map, overrides=load_body_overrides(path))
+    assert str(info.value).startswith(f"{path}: ")
+
+
+# --- the command ----------------------------------------------------------------------------------
+
+def test_skeleton_command_json(capsys):
+    path = DATA / "cmu_131_01_walk_mjstyle.bvh"
+    assert cli.main(["skeleton", str(path), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["joint_map"]["left_upper_leg"] == "LeftHip"
+    assert [v["name"] for v in info["volumes"]] == list(BASIC_VOLUMES)
+    head = next(v for v in info["volumes"] if v["name"] == "head")
+    assert head["kind"] == "sphere" and head["frame"] == "Head" and 0.08 <= head["radii"][0] <= 0.13
+    assert info["frames"] == 994 and info["fps"] == pytest.approx(120.0, rel=1e-4)
+    assert info["duration_s"] == pytest.approx(993 / 120.0, rel=1e-4)
+    assert info["units_scale"] == 0.05644
+    # Mean horizontal pelvis speed: at least the straight-line distance over the duration, a walk's pace.
+    clip = load_bvh(path)
+    chord = np.linalg.norm(clip.translations[-1, 0, :2] - clip.translations[0, 0, :2]) / clip.duration
+    assert chord <= info["root_speed_mps"] < 2.0
+    assert info["measurements"]["thigh_radius"] == pytest.approx(info["volumes"][4]["radii"][0], abs=1e-3)
+
+
+def test_skeleton_command_text_and_errors(capsys, tmp_path):
+    assert cli.main(["skeleton", str(DATA / "cmu_01_01_jumps_turnaround.bvh"), "--detailed"]) == 0
+    out = capsys.readouterr().out
+    assert "left_upper_leg   LeftUpLeg" in out and "left_foot" in out and "measurements" in out
+    bad = tmp_path / "bad.bvh"
+    bad.write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n")
+    assert cli.main(["skeleton", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert f"{bad}:" in err and "unexpected end of file" in err
