@@ -1,0 +1,625 @@
+"""Numba kernels: mass points against quadric volumes (memo §6.2), over flat arrays.
+
+Volumes arrive as flat arrays: ``kinds (V,)``, ``radii (V, 3)``, ``cuts (V, 2)``, bounding and
+switch radii ``(V,)``, and their poses at the substep start and end, positions ``(V, 3)`` and
+rotation matrices ``(V, 3, 3)`` (local -> simulation frame). Local geometry is the one of
+``volumes.py``. Everything is computed in the volume's local frame at the substep END pose,
+which is the frame the memo's simplified relative trajectory ``p0' -> p1`` lives in.
+
+Physical choices where the memo's text is loose (each is marked "physics:" below):
+- the velocity response is relative to the velocity of the volume's surface at the contact
+  point (a swinging leg drags its surface along), and only an approaching normal velocity is
+  removed: a point inside but already separating keeps its velocity (no impulse, no friction);
+- the point is put ``eps`` outside along the surface normal (the memo's Eq. 6-4 adds eps to x
+  and y separately, which is not a distance);
+- the slide after a dynamic hit (Eq. 6-8) uses the velocity relative to the surface: the point
+  already moves with the volume by being attached to it at the end pose.
+
+Beyond the memo: body volumes overlap at the joints, so a point pushed out of one volume can land
+in its neighbour; a point that was hit gets a few extra static passes (``_SETTLE_PASSES``).
+The per-point cache (temporal coherence) lists the volumes hit in the last ``handle_all``
+first, then older entries the point is still near; the broad phase evicts the far ones.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit, prange
+
+from .volumes import CAPSULE, ELLIPSOID, SPHERE
+
+NO_HIT = 0
+STATIC_HIT = 1
+DYNAMIC_HIT = 2
+
+MODE_ADAPTIVE = 0
+MODE_STATIC = 1
+MODE_DYNAMIC = 2
+
+_TINY = 1e-12
+_TRACE_TOLERANCE = 1e-7  # m: sphere tracing stops this close to a capsule's surface
+_TRACE_ITERATIONS = 48
+_SEARCH_ITERATIONS = 60
+_SETTLE_PASSES = 4  # extra static passes for a point hit by a volume (overlapping volumes)
+
+
+# ----------------------------------------------------------------------------- frames
+
+@njit(cache=True)
+def to_local(pos, rot, v, px, py, pz):
+    """Simulation-frame point -> local coordinates of volume ``v`` (R^T (p - pos))."""
+    dx = px - pos[v, 0]
+    dy = py - pos[v, 1]
+    dz = pz - pos[v, 2]
+    r = rot[v]
+    return (r[0, 0] * dx + r[1, 0] * dy + r[2, 0] * dz,
+            r[0, 1] * dx + r[1, 1] * dy + r[2, 1] * dz,
+            r[0, 2] * dx + r[1, 2] * dy + r[2, 2] * dz)
+
+
+@njit(cache=True)
+def to_world(pos, rot, v, lx, ly, lz):
+    r = rot[v]
+    return (pos[v, 0] + r[0, 0] * lx + r[0, 1] * ly + r[0, 2] * lz,
+            pos[v, 1] + r[1, 0] * lx + r[1, 1] * ly + r[1, 2] * lz,
+            pos[v, 2] + r[2, 0] * lx + r[2, 1] * ly + r[2, 2] * lz)
+
+
+@njit(cache=True)
+def rotate(rot, v, lx, ly, lz):
+    r = rot[v]
+    return (r[0, 0] * lx + r[0, 1] * ly + r[0, 2] * lz,
+            r[1, 0] * lx + r[1, 1] * ly + r[1, 2] * lz,
+            r[2, 0] * lx + r[2, 1] * ly + r[2, 2] * lz)
+
+
+# ----------------------------------------------------------------------------- geometry
+
+@njit(cache=True)
+def capsule_sdf(r_bottom, r_top, half_length, x, y, z):
+    """Exact signed distance and unit outward normal of a tapered capsule (round cone).
+
+    The convex hull of the sphere ``r_bottom`` at ``z = -half_length`` and the sphere
+    ``r_top`` at ``z = +half_length``; in the (rho, z) half plane the surface is the two
+    circles joined by their common tangent line (after Quilez's round-cone distance).
+    """
+    height = 2.0 * half_length
+    w = z + half_length
+    rho = math.sqrt(x * x + y * y)
+    if rho > _TINY:
+        ux, uy = x / rho, y / rho
+    else:  # on the axis: any radial direction is as good
+        ux, uy = 1.0, 0.0
+    b = (r_bottom - r_top) / height
+    if abs(b) >= 1.0:  # one end sphere contains the other: the capsule is that sphere
+        cz = -half_length if r_bottom >= r_top else half_length
+        radius = max(r_bottom, r_top)
+        return _sphere_sdf(radius, x, y, z - cz)
+    a = math.sqrt(1.0 - b * b)
+    k = -b * rho + a * w
+    if k < 0.0:
+        return _sphere_sdf(r_bottom, x, y, z + half_length)
+    if k > a * height:
+        return _sphere_sdf(r_top, x, y, z - half_length)
+    return a * rho + b * w - r_bottom, a * ux, a * uy, b
+
+
+@njit(cache=True)
+def _sphere_sdf(radius, x, y, z):
+    d = math.sqrt(x * x + y * y + z * z)
+    if d > _TINY:
+        return d - radius, x / d, y / d, z / d
+    return -radius, 0.0, 0.0, 1.0
+
+
+@njit(cache=True)
+def _unit_gradient(ax, ay, az, x, y, z):
+    """Unit outward normal of the quadric (x/ax)^2 + (y/ay)^2 + (z/az)^2 = 1 at (x, y, z)."""
+    gx = x / (ax * ax)
+    gy = y / (ay * ay)
+    gz = z / (az * az)
+    g = math.sqrt(gx * gx + gy * gy + gz * gz)
+    if g > _TINY:
+        return gx / g, gy / g, gz / g
+    return 0.0, 0.0, 1.0
+
+
+@njit(cache=True)
+def static_projection(kind, radii, cuts, v, x, y, z):
+    """Static handling geometry (memo Eq. 6-1, 6-3, 6-4) in the local frame.
+
+    Returns ``(inside, sx, sy, sz, nx, ny, nz)``: whether the point is inside the volume and,
+    if so, the surface point it is moved to (without eps) and the unit outward normal there.
+    Sphere: radially from the centre. Ellipsoid: z kept, (x, y) scaled onto the cross-section
+    ellipse at that z, only where ``cut[0] <= z <= cut[1]``. Capsule: along the exact distance
+    gradient, i.e. radially from the nearest point of the tapered axis.
+    """
+    if kind == SPHERE:
+        r = radii[v, 0]
+        d, nx, ny, nz = _sphere_sdf(r, x, y, z)
+        if d >= 0.0:
+            return False, x, y, z, nx, ny, nz
+        return True, r * nx, r * ny, r * nz, nx, ny, nz
+    if kind == ELLIPSOID:
+        ax, ay, az = radii[v, 0], radii[v, 1], radii[v, 2]
+        if z < cuts[v, 0] or z > cuts[v, 1]:
+            return False, x, y, z, 0.0, 0.0, 1.0
+        xy = (x / ax) ** 2 + (y / ay) ** 2
+        zz = (z / az) ** 2
+        if xy + zz >= 1.0:
+            return False, x, y, z, 0.0, 0.0, 1.0
+        section = math.sqrt(max(0.0, 1.0 - zz))  # cross-section scale at this z
+        if xy > _TINY * _TINY:
+            s = section / math.sqrt(xy)
+            sx, sy = s * x, s * y
+        else:  # on the axis: out along local x
+            sx, sy = section * ax, 0.0
+        nx, ny, nz = _unit_gradient(ax, ay, az, sx, sy, z)
+        return True, sx, sy, z, nx, ny, nz
+    d, nx, ny, nz = capsule_sdf(radii[v, 0], radii[v, 1], radii[v, 2], x, y, z)
+    if d >= 0.0:
+        return False, x, y, z, nx, ny, nz
+    return True, x - d * nx, y - d * ny, z - d * nz, nx, ny, nz
+
+
+@njit(cache=True)
+def penetration_depth(kind, radii, cuts, v, x, y, z):
+    """Depth (m) of a local point inside the volume, 0 outside.
+
+    Sphere and capsule: exact. Ellipsoid (inside and within the cut): an upper bound of the
+    exact distance to the ellipsoid's surface, the smallest of the distances to three surface
+    points: the static projection (cross-section), the radial one from the centre, and the
+    one reached along the gradient direction (tight near the surface, second order). The cut
+    planes are joins to neighbouring volumes, not surfaces, so depth is measured to the
+    curved surface only. An upper bound makes "deeper than 1 mm" assertions conservative.
+    """
+    if kind == ELLIPSOID:
+        inside, sx, sy, sz, nx, ny, nz = static_projection(kind, radii, cuts, v, x, y, z)
+        if not inside:
+            return 0.0
+        ax, ay, az = radii[v, 0], radii[v, 1], radii[v, 2]
+        best = math.sqrt((sx - x) ** 2 + (sy - y) ** 2 + (sz - z) ** 2)
+        q = math.sqrt((x / ax) ** 2 + (y / ay) ** 2 + (z / az) ** 2)
+        if q > _TINY:
+            best = min(best, math.sqrt(x * x + y * y + z * z) * (1.0 / q - 1.0))
+        gx, gy, gz = _unit_gradient(ax, ay, az, x, y, z)
+        t = _ray_exit(ax, ay, az, x, y, z, gx, gy, gz)
+        if t >= 0.0:
+            best = min(best, t)
+        return best
+    if kind == SPHERE:
+        d, nx, ny, nz = _sphere_sdf(radii[v, 0], x, y, z)
+    else:
+        d, nx, ny, nz = capsule_sdf(radii[v, 0], radii[v, 1], radii[v, 2], x, y, z)
+    return max(0.0, -d)
+
+
+@njit(cache=True)
+def _ray_exit(ax, ay, az, x, y, z, dx, dy, dz):
+    """Positive parameter where the ray (x, y, z) + t d leaves the quadric, from inside; -1 if none."""
+    qa = (dx / ax) ** 2 + (dy / ay) ** 2 + (dz / az) ** 2
+    qb = 2.0 * (x * dx / (ax * ax) + y * dy / (ay * ay) + z * dz / (az * az))
+    qc = (x / ax) ** 2 + (y / ay) ** 2 + (z / az) ** 2 - 1.0
+    disc = qb * qb - 4.0 * qa * qc
+    if qa < _TINY or disc < 0.0:
+        return -1.0
+    return (-qb + math.sqrt(disc)) / (2.0 * qa)
+
+
+# ----------------------------------------------------------------------------- dynamic detection
+
+@njit(cache=True)
+def quadric_entry(kind, radii, cuts, v, x0, y0, z0, x1, y1, z1):
+    """Memo Eq. 6-5, 6-6: first alpha in [0, 1] where l(alpha) = p0' + alpha (p1 - p0') enters
+    the sphere/ellipsoid through its curved surface within the cut; -1 if it does not.
+
+    -1 as well when p0' is already inside (nothing to enter; the caller falls back to static
+    handling of p1) and for a grazing ray (discriminant < 0). A segment whose entry point lies
+    beyond a cut enters through a cut plane: cut planes are joins to the neighbouring volumes,
+    not surfaces, so that is no hit either; if p1 ends inside, static handling pushes it out
+    across the curved surface, as the memo does for slow points.
+    """
+    ax, ay, az = radii[v, 0], radii[v, 1], radii[v, 2]
+    dx, dy, dz = x1 - x0, y1 - y0, z1 - z0
+    qa = (dx / ax) ** 2 + (dy / ay) ** 2 + (dz / az) ** 2
+    qb = 2.0 * (x0 * dx / (ax * ax) + y0 * dy / (ay * ay) + z0 * dz / (az * az))
+    qc = (x0 / ax) ** 2 + (y0 / ay) ** 2 + (z0 / az) ** 2 - 1.0
+    if qc <= 0.0 or qb >= 0.0 or qa < _TINY:
+        return -1.0  # starts inside/on it, or moves away from it (both roots < 0), or does not move
+    disc = qb * qb - 4.0 * qa * qc
+    if disc < 0.0:
+        return -1.0
+    alpha = 2.0 * qc / (-qb + math.sqrt(disc))  # the smaller root, in the cancellation-free form
+    if alpha > 1.0:
+        return -1.0
+    if kind == ELLIPSOID:
+        z = z0 + alpha * dz
+        if z < cuts[v, 0] or z > cuts[v, 1]:
+            return -1.0
+    return alpha
+
+
+@njit(cache=True)
+def capsule_entry(radii, v, x0, y0, z0, x1, y1, z1):
+    """First alpha in [0, 1] where the segment enters the tapered capsule; -1 if it does not.
+
+    Sphere tracing on the exact signed distance (never steps past the surface); a grazing
+    segment that has not converged after a few dozen steps is finished by a golden-section
+    search for the minimum of the distance along the segment (convex: the capsule is convex)
+    and a bisection between the last outside point and that minimum.
+    """
+    rb, rt, hl = radii[v, 0], radii[v, 1], radii[v, 2]
+    dx, dy, dz = x1 - x0, y1 - y0, z1 - z0
+    length = math.sqrt(dx * dx + dy * dy + dz * dz)
+    d0 = capsule_sdf(rb, rt, hl, x0, y0, z0)[0]
+    if d0 <= 0.0 or length < _TINY:
+        return -1.0
+    ux, uy, uz = dx / length, dy / length, dz / length
+    t = 0.0
+    for _ in range(_TRACE_ITERATIONS):
+        d = capsule_sdf(rb, rt, hl, x0 + t * ux, y0 + t * uy, z0 + t * uz)[0]
+        if d < _TRACE_TOLERANCE:
+            return t / length
+        t += d
+        if t > length:
+            return -1.0
+    # grazing: minimise the distance over [t, length]
+    lo, hi = t, length
+    g = 0.5 * (math.sqrt(5.0) - 1.0)
+    for _ in range(_SEARCH_ITERATIONS):
+        m1 = hi - g * (hi - lo)
+        m2 = lo + g * (hi - lo)
+        f1 = capsule_sdf(rb, rt, hl, x0 + m1 * ux, y0 + m1 * uy, z0 + m1 * uz)[0]
+        f2 = capsule_sdf(rb, rt, hl, x0 + m2 * ux, y0 + m2 * uy, z0 + m2 * uz)[0]
+        if f1 < f2:
+            hi = m2
+        else:
+            lo = m1
+    t_min = 0.5 * (lo + hi)
+    if capsule_sdf(rb, rt, hl, x0 + t_min * ux, y0 + t_min * uy, z0 + t_min * uz)[0] > 0.0:
+        return -1.0
+    lo, hi = t, t_min
+    for _ in range(_SEARCH_ITERATIONS):
+        mid = 0.5 * (lo + hi)
+        if capsule_sdf(rb, rt, hl, x0 + mid * ux, y0 + mid * uy, z0 + mid * uz)[0] > 0.0:
+            lo = mid
+        else:
+            hi = mid
+    return hi / length
+
+
+@njit(cache=True)
+def surface_at(kind, radii, v, x, y, z):
+    """Closest-surface point and unit normal for a point on (or within tolerance of) the surface."""
+    if kind == CAPSULE:
+        d, nx, ny, nz = capsule_sdf(radii[v, 0], radii[v, 1], radii[v, 2], x, y, z)
+        return x - d * nx, y - d * ny, z - d * nz, nx, ny, nz
+    nx, ny, nz = _unit_gradient(radii[v, 0], radii[v, 1], radii[v, 2], x, y, z)
+    return x, y, z, nx, ny, nz
+
+
+# ----------------------------------------------------------------------------- response
+
+@njit(cache=True)
+def respond_velocity(vx, vy, vz, sx, sy, sz, nx, ny, nz, friction):
+    """Memo Eq. 6-2 / 6-8 relative to the surface velocity s, normal n (unit, outward).
+
+    Returns the new RELATIVE velocity: perfectly inelastic (an approaching normal part is
+    removed) and the tangential part scaled by the modified Coulomb factor
+    ``c = 1 - k_f |v_n| / |v_t|`` if ``|v_t| >= k_f |v_n|`` else 0. The velocity responded is
+    the one the point carries into the next substep (after the length correction, Eq. 5-2).
+    """
+    rx, ry, rz = vx - sx, vy - sy, vz - sz
+    vn = rx * nx + ry * ny + rz * nz
+    if vn >= 0.0:  # physics: separating (or resting) relative to the surface: no impulse
+        return rx, ry, rz
+    tx, ty, tz = rx - vn * nx, ry - vn * ny, rz - vn * nz
+    vt = math.sqrt(tx * tx + ty * ty + tz * tz)
+    if vt >= friction * -vn and vt > 0.0:
+        c = 1.0 - friction * -vn / vt
+    else:
+        c = 0.0
+    return c * tx, c * ty, c * tz
+
+
+@njit(cache=True)
+def surface_velocity(pos0, rot0, pos1, rot1, v, lx, ly, lz, h):
+    """Velocity of the volume's material point with local coordinates l over the substep."""
+    if h <= 0.0:
+        return 0.0, 0.0, 0.0
+    ax, ay, az = to_world(pos0, rot0, v, lx, ly, lz)
+    bx, by, bz = to_world(pos1, rot1, v, lx, ly, lz)
+    return (bx - ax) / h, (by - ay) / h, (bz - az) / h
+
+
+@njit(cache=True)
+def handle_pair(kinds, radii, cuts, switch_radii, pos0, rot0, pos1, rot1, v,
+                xs, x, vel, i, h, eps, friction, c_time, switch_ratio, mode):
+    """Handle point ``i`` against volume ``v``; ``x``, ``vel`` updated in place.
+
+    ``xs[i]`` is the point at the substep start, ``x[i]`` at its end. Returns
+    ``(code, alpha, lx, ly, lz)``: NO_HIT / STATIC_HIT / DYNAMIC_HIT, the collision time
+    fraction (dynamic) and the contact point (on the surface, before eps) in the local frame
+    of the substep-end pose.
+    """
+    kind = kinds[v]
+    bx, by, bz = to_local(pos1, rot1, v, x[i, 0], x[i, 1], x[i, 2])
+    use_dynamic = mode == MODE_DYNAMIC
+    if mode == MODE_ADAPTIVE or use_dynamic:
+        # p0 in the start pose's local frame = p0' in the end pose's local frame (memo §6.2.1)
+        ax, ay, az = to_local(pos0, rot0, v, xs[i, 0], xs[i, 1], xs[i, 2])
+        if mode == MODE_ADAPTIVE:
+            trajectory = math.sqrt((bx - ax) ** 2 + (by - ay) ** 2 + (bz - az) ** 2)
+            use_dynamic = trajectory > switch_ratio * switch_radii[v]
+        if use_dynamic:
+            if kind == CAPSULE:
+                alpha = capsule_entry(radii, v, ax, ay, az, bx, by, bz)
+            else:
+                alpha = quadric_entry(kind, radii, cuts, v, ax, ay, az, bx, by, bz)
+            if alpha >= 0.0:
+                sx, sy, sz, nx, ny, nz = surface_at(
+                    kind, radii, v, ax + alpha * (bx - ax), ay + alpha * (by - ay), az + alpha * (bz - az))
+                _respond(pos0, rot0, pos1, rot1, v, x, vel, i, sx, sy, sz, nx, ny, nz,
+                         eps, friction, h, c_time * (1.0 - alpha) * h)
+                return DYNAMIC_HIT, alpha, sx, sy, sz
+    inside, sx, sy, sz, nx, ny, nz = static_projection(kind, radii, cuts, v, bx, by, bz)
+    if not inside:
+        return NO_HIT, -1.0, bx, by, bz
+    _respond(pos0, rot0, pos1, rot1, v, x, vel, i, sx, sy, sz, nx, ny, nz, eps, friction, h, 0.0)
+    return STATIC_HIT, 1.0, sx, sy, sz
+
+
+@njit(cache=True)
+def _respond(pos0, rot0, pos1, rot1, v, x, vel, i, sx, sy, sz, nx, ny, nz, eps, friction, h, slide_time):
+    """Put point i at the local surface point s + eps n (end pose), respond its velocity, and
+    slide it for ``slide_time`` with the new velocity relative to the surface (Eq. 6-8).
+
+    physics: eps is a distance along the normal (not the memo's eps per coordinate); the slide
+    is relative to the surface, since sitting at the end pose already carries the point along;
+    the surface velocity is the one of the volume's material point at the contact.
+    """
+    cx, cy, cz = sx + eps * nx, sy + eps * ny, sz + eps * nz
+    svx, svy, svz = surface_velocity(pos0, rot0, pos1, rot1, v, cx, cy, cz, h)
+    wnx, wny, wnz = rotate(rot1, v, nx, ny, nz)
+    rx, ry, rz = respond_velocity(vel[i, 0], vel[i, 1], vel[i, 2], svx, svy, svz, wnx, wny, wnz, friction)
+    px, py, pz = to_world(pos1, rot1, v, cx, cy, cz)
+    x[i, 0] = px + slide_time * rx
+    x[i, 1] = py + slide_time * ry
+    x[i, 2] = pz + slide_time * rz
+    vel[i, 0] = svx + rx
+    vel[i, 1] = svy + ry
+    vel[i, 2] = svz + rz
+
+
+# ----------------------------------------------------------------------------- broad phase
+
+@njit(cache=True)
+def broad_phase_rejects(bounding_radii, pos0, pos1, displacement, chord, v, xs, x, i):
+    """True when point i's simplified relative trajectory cannot reach volume v.
+
+    With a = |p0 - c0| (start, start pose), b = |p1 - c1| (end, end pose) and L an upper bound
+    of the relative trajectory |p1 - p0'| (point sweep + centre displacement + a times the
+    chord 2 sin(theta/2) of the volume's rotation over the substep), every point of the
+    segment p0' -> p1 is at least (a + b - L) / 2 from the centre. That covers the static test
+    too (b >= (a + b - L) / 2), so rejecting never changes a result.
+    """
+    a = math.sqrt((xs[i, 0] - pos0[v, 0]) ** 2 + (xs[i, 1] - pos0[v, 1]) ** 2 + (xs[i, 2] - pos0[v, 2]) ** 2)
+    b = math.sqrt((x[i, 0] - pos1[v, 0]) ** 2 + (x[i, 1] - pos1[v, 1]) ** 2 + (x[i, 2] - pos1[v, 2]) ** 2)
+    sweep = math.sqrt((x[i, 0] - xs[i, 0]) ** 2 + (x[i, 1] - xs[i, 1]) ** 2 + (x[i, 2] - xs[i, 2]) ** 2)
+    bound = sweep + displacement[v] + a * chord[v]
+    return 0.5 * (a + b - bound) > bounding_radii[v] * (1.0 + 1e-9) + 1e-12
+
+
+@njit(cache=True)
+def _outside_bounding_sphere(bounding_radii, pos, v, x, i):
+    d2 = (x[i, 0] - pos[v, 0]) ** 2 + (x[i, 1] - pos[v, 1]) ** 2 + (x[i, 2] - pos[v, 2]) ** 2
+    return d2 > bounding_radii[v] * bounding_radii[v]
+
+
+@njit(cache=True)
+def substep_motion(pos0, rot0, pos1, rot1, displacement, chord):
+    """Per volume: centre displacement and rotation chord 2 sin(theta/2) = sqrt(3 - tr(R1 R0^T))."""
+    for v in range(pos0.shape[0]):
+        displacement[v] = math.sqrt((pos1[v, 0] - pos0[v, 0]) ** 2 + (pos1[v, 1] - pos0[v, 1]) ** 2
+                                    + (pos1[v, 2] - pos0[v, 2]) ** 2)
+        trace = 0.0
+        for r in range(3):
+            for c in range(3):
+                trace += rot1[v, r, c] * rot0[v, r, c]
+        chord[v] = math.sqrt(max(0.0, 3.0 - trace)) * (1.0 + 1e-9) + 1e-12
+
+
+# ----------------------------------------------------------------------------- pose interpolation
+
+@njit(cache=True)
+def interpolate_poses(pos_a, quat_a, pos_b, quat_b, fraction, out_pos, out_rot):
+    """Poses at ``fraction`` between a and b: translation linear, rotation slerp (shorter arc),
+    written as positions and rotation matrices into the preallocated outputs."""
+    for v in range(pos_a.shape[0]):
+        for k in range(3):
+            out_pos[v, k] = pos_a[v, k] + fraction * (pos_b[v, k] - pos_a[v, k])
+        dot = 0.0
+        for k in range(4):
+            dot += quat_a[v, k] * quat_b[v, k]
+        sign = 1.0
+        if dot < 0.0:
+            sign, dot = -1.0, -dot
+        if dot > 1.0 - 1e-12:
+            wa, wb = 1.0 - fraction, fraction
+        else:
+            theta = math.acos(min(1.0, dot))
+            wa = math.sin((1.0 - fraction) * theta) / math.sin(theta)
+            wb = math.sin(fraction * theta) / math.sin(theta)
+        qx = wa * quat_a[v, 0] + sign * wb * quat_b[v, 0]
+        qy = wa * quat_a[v, 1] + sign * wb * quat_b[v, 1]
+        qz = wa * quat_a[v, 2] + sign * wb * quat_b[v, 2]
+        qw = wa * quat_a[v, 3] + sign * wb * quat_b[v, 3]
+        n = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+        qx, qy, qz, qw = qx / n, qy / n, qz / n, qw / n
+        out_rot[v, 0, 0] = 1.0 - 2.0 * (qy * qy + qz * qz)
+        out_rot[v, 0, 1] = 2.0 * (qx * qy - qz * qw)
+        out_rot[v, 0, 2] = 2.0 * (qx * qz + qy * qw)
+        out_rot[v, 1, 0] = 2.0 * (qx * qy + qz * qw)
+        out_rot[v, 1, 1] = 1.0 - 2.0 * (qx * qx + qz * qz)
+        out_rot[v, 1, 2] = 2.0 * (qy * qz - qx * qw)
+        out_rot[v, 2, 0] = 2.0 * (qx * qz - qy * qw)
+        out_rot[v, 2, 1] = 2.0 * (qy * qz + qx * qw)
+        out_rot[v, 2, 2] = 1.0 - 2.0 * (qx * qx + qy * qy)
+
+
+# ----------------------------------------------------------------------------- drivers over points
+
+@njit(cache=True)
+def _record(scratch, i, start, count, capacity, v):
+    """Append v to the list scratch[i, start:start + count] unless it is there or full; new count."""
+    for k in range(count):
+        if scratch[i, start + k] == v:
+            return count
+    if count < capacity:
+        scratch[i, start + count] = v
+        return count + 1
+    return count
+
+
+@njit(cache=True)
+def _handle_point_all(kinds, radii, cuts, bounding_radii, switch_radii, pos0, rot0, pos1, rot1,
+                      displacement, chord, xs, x, vel, i, h, eps, friction, c_time, switch_ratio, mode,
+                      use_broad_phase, cache, scratch):
+    """Point i against every volume, cached volumes first (temporal coherence), then rebuilds
+    its cache row: this call's hits first, then the older entries the point is still near
+    (the broad phase evicts the others). ``scratch[i]`` (length 2 C) holds the hits in its
+    first half and the kept entries in its second. Returns (static hits, dynamic hits)."""
+    n_volumes = kinds.shape[0]
+    cache_size = cache.shape[1]
+    n_static = 0
+    n_dynamic = 0
+    n_hits = 0
+    n_kept = 0
+    for step in range(2):
+        for s in range(cache_size if step == 0 else n_volumes):
+            if step == 0:
+                v = cache[i, s]
+                if v < 0:
+                    continue
+            else:
+                v = s
+                cached = False
+                for c in range(cache_size):
+                    cached = cached or cache[i, c] == v
+                if cached:
+                    continue
+            if use_broad_phase and broad_phase_rejects(bounding_radii, pos0, pos1, displacement, chord, v, xs, x, i):
+                continue
+            code = handle_pair(kinds, radii, cuts, switch_radii, pos0, rot0, pos1, rot1, v,
+                               xs, x, vel, i, h, eps, friction, c_time, switch_ratio, mode)[0]
+            if code == NO_HIT:
+                if step == 0:
+                    n_kept = _record(scratch, i, cache_size, n_kept, cache_size, v)
+                continue
+            if code == STATIC_HIT:
+                n_static += 1
+            else:
+                n_dynamic += 1
+            n_hits = _record(scratch, i, 0, n_hits, cache_size, v)
+    # Volumes overlap at the joints: being pushed out of one can push a point into its
+    # neighbour (the crotch between pelvis and thigh). A few static passes settle it.
+    for _ in range(_SETTLE_PASSES if n_static + n_dynamic > 0 else 0):
+        moved = False
+        for v in range(n_volumes):
+            if use_broad_phase and _outside_bounding_sphere(bounding_radii, pos1, v, x, i):
+                continue
+            code = handle_pair(kinds, radii, cuts, switch_radii, pos0, rot0, pos1, rot1, v,
+                               xs, x, vel, i, h, eps, friction, c_time, switch_ratio, MODE_STATIC)[0]
+            if code != NO_HIT:
+                moved = True
+                n_static += 1
+                n_hits = _record(scratch, i, 0, n_hits, cache_size, v)
+        if not moved:
+            break
+    slot = 0
+    for k in range(n_hits):
+        cache[i, slot] = scratch[i, k]
+        slot += 1
+    for k in range(n_kept):
+        v = scratch[i, cache_size + k]
+        hit = False
+        for j in range(n_hits):
+            hit = hit or scratch[i, j] == v
+        if not hit and slot < cache_size:
+            cache[i, slot] = v
+            slot += 1
+    for c in range(slot, cache_size):
+        cache[i, c] = -1
+    return n_static, n_dynamic
+
+
+@njit(cache=True)
+def handle_all(kinds, radii, cuts, bounding_radii, switch_radii, pos0, rot0, pos1, rot1,
+               displacement, chord, xs, x, vel, inv_mass, h, eps, friction, c_time, switch_ratio, mode,
+               use_broad_phase, cache, scratch):
+    """Memo §3 step 5 over all points (serial). Returns (static hits, dynamic hits)."""
+    n_static = 0
+    n_dynamic = 0
+    for i in range(x.shape[0]):
+        if inv_mass[i] == 0.0:
+            continue
+        s, d = _handle_point_all(kinds, radii, cuts, bounding_radii, switch_radii, pos0, rot0, pos1, rot1,
+                                 displacement, chord, xs, x, vel, i, h, eps, friction, c_time, switch_ratio,
+                                 mode, use_broad_phase, cache, scratch)
+        n_static += s
+        n_dynamic += d
+    return n_static, n_dynamic
+
+
+@njit(cache=True, parallel=True)
+def handle_all_parallel(kinds, radii, cuts, bounding_radii, switch_radii, pos0, rot0, pos1, rot1,
+                        displacement, chord, xs, x, vel, inv_mass, h, eps, friction, c_time, switch_ratio,
+                        mode, use_broad_phase, cache, scratch):
+    """``handle_all`` with the points spread over threads (points are independent here)."""
+    n_static = 0
+    n_dynamic = 0
+    for i in prange(x.shape[0]):
+        if inv_mass[i] != 0.0:
+            s, d = _handle_point_all(kinds, radii, cuts, bounding_radii, switch_radii, pos0, rot0, pos1, rot1,
+                                     displacement, chord, xs, x, vel, i, h, eps, friction, c_time, switch_ratio,
+                                     mode, use_broad_phase, cache, scratch)
+            n_static += s
+            n_dynamic += d
+    return n_static, n_dynamic
+
+
+@njit(cache=True)
+def handle_contacts(kinds, radii, cuts, bounding_radii, pos0, rot0, pos1, rot1, x, vel, inv_mass,
+                    h, eps, friction, cache):
+    """Memo §3 step 4: static handling of the cached (point, volume) pairs at the end poses.
+    Returns the number of points moved out."""
+    n_static = 0
+    for i in range(x.shape[0]):
+        if inv_mass[i] == 0.0:
+            continue
+        for c in range(cache.shape[1]):
+            v = cache[i, c]
+            if v < 0:
+                continue
+            b = math.sqrt((x[i, 0] - pos1[v, 0]) ** 2 + (x[i, 1] - pos1[v, 1]) ** 2 + (x[i, 2] - pos1[v, 2]) ** 2)
+            if b > bounding_radii[v]:
+                continue
+            lx, ly, lz = to_local(pos1, rot1, v, x[i, 0], x[i, 1], x[i, 2])
+            inside, sx, sy, sz, nx, ny, nz = static_projection(kinds[v], radii, cuts, v, lx, ly, lz)
+            if inside:
+                _respond(pos0, rot0, pos1, rot1, v, x, vel, i, sx, sy, sz, nx, ny, nz, eps, friction, h, 0.0)
+                n_static += 1
+    return n_static
+
+
+@njit(cache=True)
+def penetration_depths(kinds, radii, cuts, pos, rot, x, out):
+    """Depth of every point inside its deepest volume (see ``penetration_depth``), 0 outside."""
+    for i in range(x.shape[0]):
+        deepest = 0.0
+        for v in range(kinds.shape[0]):
+            lx, ly, lz = to_local(pos, rot, v, x[i, 0], x[i, 1], x[i, 2])
+            deepest = max(deepest, penetration_depth(kinds[v], radii, cuts, v, lx, ly, lz))
+        out[i] = deepest
+    return out
