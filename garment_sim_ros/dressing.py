@@ -166,10 +166,14 @@ class DressedCharacter:
         return [s.world_positions(motion.position, motion.yaw) for s in self.solvers]
 
     def max_penetration(self) -> float:
-        """Deepest point of any garment inside any volume at the last frame's end, m."""
+        """Deepest free point of any garment inside any volume at the last frame's end, m.
+
+        Attached points are left out: they ride on their segment wherever it puts them (a strapless
+        dress's neckline runs under the arms' volumes)."""
         depth = 0.0
         for solver in self.solvers:
             if solver.collider is not None:
-                depth = max(depth, float(np.max(solver.collider.penetration_depths(solver.state.positions),
-                                                initial=0.0)))
+                free = solver.constants.inv_mass > 0.0
+                depths = solver.collider.penetration_depths(solver.state.positions)[free]
+                depth = max(depth, float(np.max(depths, initial=0.0)))
         return depth

@@ -273,7 +273,7 @@ class GarmentSolver:
                     report.correction_s += clock() - tic
                 if iteration == 0 and collider is not None:
                     tic = clock()
-                    collider.handle_contacts(x, v, const.inv_mass)
+                    collider.handle_contacts(x, v, const.inv_mass, h)
                     report.collision_s += clock() - tic
             tic = clock()
             kernels.velocities_from_positions(x, self._x_start, h, v)
