@@ -1,34 +1,76 @@
 """The README's parameter tables, generated from the parameter tables themselves.
 
-``python -m garment_sim_ros.docs`` prints them; a test checks the README carries every row.
+``python -m garment_sim_ros.docs README.md`` rewrites the tables between their markers
+(``<!-- solver-parameters -->`` ... ``<!-- /solver-parameters -->`` and the same for
+``node-parameters``); a test checks the README is current.
 """
 
 from __future__ import annotations
+
+import re
+import sys
+from pathlib import Path
 
 from .params import DEFAULT_PARAMS, PARAMETERS, PRESETS
 
 
 def _value(value) -> str:
-    if isinstance(value, tuple):
-        return "[" + ", ".join(f"{v:g}" for v in value) + "]"
+    if isinstance(value, (tuple, list)):
+        return "[" + ", ".join(_value(v) for v in value) + "]"
     if isinstance(value, float):
         return f"{value:g}"
+    if isinstance(value, bool):
+        return str(value).lower()
+    if isinstance(value, str):
+        return f'"{value}"'
     return str(value)
 
 
+def _allowed(p) -> str:
+    return p.allowed() if hasattr(p, "allowed") else ""
+
+
 def solver_parameter_rows() -> list[str]:
-    rows = ["| name | default | memo preset | unit | range | meaning |", "|---|---|---|---|---|---|"]
+    rows = ["| name | default | memo preset | unit | allowed | meaning |", "|---|---|---|---|---|---|"]
     memo = PRESETS["memo"]
     for p in PARAMETERS:
-        allowed = ", ".join(p.choices) if p.choices else f"{_value(p.low)} .. {_value(p.high)}"
         rows.append(f"| `{p.name}` | {_value(getattr(DEFAULT_PARAMS, p.name))} | {_value(getattr(memo, p.name))} "
-                    f"| {p.unit} | {allowed} | {p.description} |")
+                    f"| {p.unit} | {_allowed(p)} | {p.description} |")
     return rows
 
 
-def main() -> None:
-    print("\n".join(solver_parameter_rows()))
+def node_parameter_rows() -> list[str]:
+    from .ros.settings import NODE_PARAMETERS
+
+    rows = ["| name | default | unit | allowed | meaning |", "|---|---|---|---|---|"]
+    for p in NODE_PARAMETERS:
+        note = " (read-only)" if p.read_only else ""
+        rows.append(f"| `{p.name}`{note} | {_value(p.default)} | {p.unit} | {_allowed(p)} | {p.description} |")
+    return rows
+
+
+SECTIONS = {"solver-parameters": solver_parameter_rows, "node-parameters": node_parameter_rows}
+
+
+def render(text: str) -> str:
+    for name, rows in SECTIONS.items():
+        pattern = re.compile(rf"(<!-- {name} -->\n).*?(<!-- /{name} -->)", re.S)
+        if not pattern.search(text):
+            raise ValueError(f"README has no <!-- {name} --> ... <!-- /{name} --> markers")
+        text = pattern.sub(lambda m: m.group(1) + "\n".join(rows()) + "\n" + m.group(2), text)
+    return text
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if not argv:
+        for rows in SECTIONS.values():
+            print("\n".join(rows()) + "\n")
+        return 0
+    path = Path(argv[0])
+    path.write_text(render(path.read_text()))
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())
