@@ -9,6 +9,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
+import numpy as np
+
 from .skeleton import Skeleton, SkeletonPose
 
 GAITS = ("walk", "run", "fast")
@@ -50,4 +52,8 @@ def bvh_source(path: str, loop: bool = True, skip_first_frame: bool = False, spe
     def pose(t: float) -> SkeletonPose:
         return clip.sample(t * speed, loop=loop)
 
-    return MotionSource(path, clip.skeleton, mapping, rest, pose, None if loop else clip.duration / speed)
+    def local_transforms(t: float) -> tuple[np.ndarray, np.ndarray]:
+        return clip.sample_local(t * speed, loop=loop)
+
+    return MotionSource(path, clip.skeleton, mapping, rest, pose, None if loop else clip.duration / speed,
+                        local_transforms)

@@ -1,0 +1,297 @@
+"""Rerun logging of a dressed character, frame by frame (ROS-free).
+
+``RerunLogger`` owns its own ``rerun.RecordingStream`` (never the global one), so two loggers in
+one process (two characters, a test beside a node) write separate recordings. Entity layout:
+
+- ``world``: view coordinates, right-handed z up (REP-103), static;
+- ``world/garments/<name>``: ``Mesh3D``, triangles static (re-sent when they change), vertex
+  positions, normals and colours per frame;
+- ``world/body/volumes``: ``Ellipsoids3D`` (see ``volume_ellipsoids`` for the shapes shown);
+- ``world/body/skeleton``: ``LineStrips3D``, one two-point strip per bone;
+- ``timings/<stage>``: ``Scalars``, milliseconds;
+
+all on the ``sim_time`` timeline (seconds of the node's clock, a duration), with a blueprint: the 3D
+view beside the timing plots.
+
+``frame_payload(character, pose)`` builds ``log_frame``'s arguments from a ``DressedCharacter``
+and a ``SkeletonPose``; the node, the demo and ``garment-sim snapshot`` share it.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import uuid
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from .collision.volumes import CAPSULE, ELLIPSOID, VolumeSet
+from .shading import BODY_RGB, DEFAULT_LIGHT_DIR, SKELETON_RGB, garment_color, shade
+from .transforms import quat_rotate
+
+SINKS = ("off", "save", "connect", "serve")
+TIMELINE = "sim_time"
+DEFAULT_CONNECT_URL = "rerun+http://127.0.0.1:9876/proxy"
+_URL_SCHEMES = ("rerun://", "rerun+http://", "rerun+https://")
+_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")  # one entity-path part, no escaping needed
+SKELETON_LINE_RADIUS_M = 0.006
+
+
+class RerunLogger:
+    """Log garments, body volumes, the skeleton and stage timings to Rerun.
+
+    ``sink``:
+      - ``"off"``: nothing is created or written; ``log_frame`` returns at once (``enabled`` is False);
+      - ``"save"``: stream to the ``.rrd`` file ``path`` (its folder is created);
+      - ``"connect"``: stream to a running viewer at ``url`` (default ``rerun+http://127.0.0.1:9876/proxy``);
+      - ``"serve"``: serve the stream over gRPC on ``port`` (default 9876) for viewers to connect to.
+        Opt-in: Rerun 0.41 binds the server to 0.0.0.0, so the stream is exposed on EVERY network
+        interface of the machine, to anyone who can reach the port.
+    ``path`` is read only by ``save``, ``url`` by ``connect``, ``port`` by ``serve``.
+    """
+
+    def __init__(self, sink: str = "off", path: str | Path | None = None, url: str | None = None,
+                 application_id: str = "garment_sim", recording_name: str = "garment_sim",
+                 port: int | None = None):
+        if sink not in SINKS:
+            raise ValueError(f"RerunLogger: unknown sink {sink!r}; allowed: {', '.join(SINKS)}")
+        for label, value in (("application_id", application_id), ("recording_name", recording_name)):
+            if not isinstance(value, str) or not value.strip():
+                raise ValueError(f"RerunLogger: {label} must be a non-empty string, got {value!r}")
+        self.sink = sink
+        self.path: Path | None = None
+        self.url: str | None = None
+        self._stream = None
+        self._triangles: dict[str, np.ndarray] = {}
+        if sink == "off":
+            return
+        if sink == "save":
+            if path is None or not str(path).strip():
+                raise ValueError("RerunLogger: sink 'save' needs path= (the .rrd file to write)")
+            self.path = Path(path)
+            if self.path.suffix != ".rrd":
+                raise ValueError(f"RerunLogger: path {str(path)!r} must end in .rrd")
+            if self.path.is_dir():
+                raise ValueError(f"RerunLogger: path {str(path)!r} is a directory; give a .rrd file name")
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        elif sink == "connect":
+            self.url = DEFAULT_CONNECT_URL if url is None else url
+            if not (isinstance(self.url, str) and self.url.startswith(_URL_SCHEMES) and self.url.endswith("/proxy")):
+                raise ValueError(f"RerunLogger: url {url!r} is not a Rerun gRPC address; expected "
+                                 f"{' or '.join(s + 'HOST:PORT/proxy' for s in _URL_SCHEMES)}")
+        elif port is not None and (isinstance(port, bool) or not isinstance(port, int) or not 1 <= port <= 65535):
+            raise ValueError(f"RerunLogger: port must be an integer in [1, 65535], got {port!r}")
+
+        import rerun as rr
+
+        self._rr = rr
+        self._stream = rr.RecordingStream(application_id, recording_id=uuid.uuid4())
+        blueprint = _blueprint()
+        if sink == "save":
+            self._stream.save(self.path, default_blueprint=blueprint)
+        elif sink == "connect":
+            self._stream.connect_grpc(self.url, default_blueprint=blueprint)
+        else:
+            self.url = self._stream.serve_grpc(grpc_port=port, default_blueprint=blueprint)
+        self._stream.send_recording_name(recording_name)
+        self._stream.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+
+    @property
+    def enabled(self) -> bool:
+        return self._stream is not None
+
+    def log_frame(self, time_s: float, garments: Sequence[tuple] = (), volumes: tuple | None = None,
+                  skeleton_segments: np.ndarray | None = None, timings_ms: Mapping[str, float] | None = None) -> None:
+        """Log one frame at ``time_s`` (s, the node's clock) on the ``sim_time`` timeline.
+
+        ``garments``: ``(name, positions (N,3), normals (N,3), triangles (T,3) int, colors (N,3) uint8)``
+        each; ``volumes``: ``(centers (V,3), rotations (V,4) xyzw, half_sizes (V,3))``;
+        ``skeleton_segments``: ``(S, 2, 3)``; ``timings_ms``: ``{stage: milliseconds}``.
+        """
+        if self._stream is None:
+            return
+        rr, stream = self._rr, self._stream
+        if isinstance(time_s, bool) or not isinstance(time_s, (int, float)) or not math.isfinite(time_s):
+            raise ValueError(f"log_frame: time_s must be a finite number of seconds, got {time_s!r}")
+        checked = [_check_garment(g) for g in garments]
+        if volumes is not None:
+            volumes = _check_volumes(volumes)
+        if skeleton_segments is not None:
+            skeleton_segments = _check_array("skeleton_segments", skeleton_segments, (None, 2, 3), float)
+        timings = _check_timings(timings_ms or {})
+
+        stream.set_time(TIMELINE, duration=float(time_s))
+        for name, positions, normals, triangles, colors in checked:
+            entity = f"world/garments/{name}"
+            known = self._triangles.get(name)
+            if known is None or known.shape != triangles.shape or not np.array_equal(known, triangles):
+                stream.log(entity, rr.Mesh3D.from_fields(triangle_indices=triangles.astype(np.uint32)), static=True)
+                self._triangles[name] = triangles.copy()
+            stream.log(entity, rr.Mesh3D.from_fields(vertex_positions=positions, vertex_normals=normals,
+                                                     vertex_colors=colors))
+        if volumes is not None:
+            centers, rotations, half_sizes = volumes
+            stream.log("world/body/volumes", rr.Ellipsoids3D(centers=centers, quaternions=rotations,
+                                                             half_sizes=half_sizes, colors=[BODY_RGB]))
+        if skeleton_segments is not None:
+            stream.log("world/body/skeleton", rr.LineStrips3D(skeleton_segments, radii=SKELETON_LINE_RADIUS_M,
+                                                              colors=[SKELETON_RGB]))
+        for stage, value in timings.items():
+            stream.log(f"timings/{stage}", rr.Scalars(value))
+
+    def close(self) -> None:
+        """Flush everything logged and end the stream (a saved file is complete after this)."""
+        if self._stream is not None:
+            self._stream.flush()
+            self._stream.disconnect()
+            self._stream = None
+
+    def __enter__(self) -> "RerunLogger":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _blueprint():
+    import rerun.blueprint as rrb
+
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Spatial3DView(origin="world", name="dressed character"),
+            rrb.TimeSeriesView(origin="timings", name="stage timings [ms]"),
+            column_shares=[3, 2],
+        ),
+        collapse_panels=True,
+    )
+
+
+# ---------------------------------------------------------------------------------- validation
+def _check_array(label: str, value, shape: tuple, dtype) -> np.ndarray:
+    """``value`` as an array of ``shape`` (None: any length) with finite entries."""
+    try:
+        array = np.asarray(value, dtype=dtype)
+    except (TypeError, ValueError):
+        raise ValueError(f"log_frame: {label} must be a numeric array of shape {_shape_text(shape)}") from None
+    if array.ndim != len(shape) or any(want is not None and got != want for got, want in zip(array.shape, shape)):
+        raise ValueError(f"log_frame: {label} must have shape {_shape_text(shape)}, got {array.shape}")
+    if array.dtype.kind == "f" and not np.all(np.isfinite(array)):
+        raise ValueError(f"log_frame: {label} has non-finite values")
+    return array
+
+
+def _shape_text(shape: tuple) -> str:
+    return "(" + ", ".join("N" if s is None else str(s) for s in shape) + ")"
+
+
+def _check_name(label: str, name) -> str:
+    if not isinstance(name, str) or not _NAME.match(name):
+        raise ValueError(f"log_frame: {label} {name!r} must be a non-empty name of letters, digits, '_', '.', '-'")
+    return name
+
+
+def _check_garment(garment) -> tuple:
+    if not isinstance(garment, (tuple, list)) or len(garment) != 5:
+        raise ValueError("log_frame: each garment must be (name, positions, normals, triangles, colors)")
+    name, positions, normals, triangles, colors = garment
+    name = _check_name("garment name", name)
+    positions = _check_array(f"garment {name!r} positions", positions, (None, 3), np.float32)
+    count = len(positions)
+    normals = _check_array(f"garment {name!r} normals", normals, (count, 3), np.float32)
+    triangles = np.asarray(triangles)
+    if triangles.ndim != 2 or triangles.shape[1] != 3 or triangles.dtype.kind not in "iu":
+        raise ValueError(f"log_frame: garment {name!r} triangles must be an integer array of shape (T, 3), "
+                         f"got {triangles.dtype} {triangles.shape}")
+    if triangles.size and (triangles.min() < 0 or triangles.max() >= count):
+        raise ValueError(f"log_frame: garment {name!r} triangles index vertices {triangles.min()}..{triangles.max()}, "
+                         f"the garment has {count}")
+    colors = np.asarray(colors)
+    if colors.dtype != np.uint8 or colors.shape not in ((count, 3), (count, 4)):
+        raise ValueError(f"log_frame: garment {name!r} colors must be uint8 of shape ({count}, 3) or ({count}, 4), "
+                         f"got {colors.dtype} {colors.shape}")
+    return name, positions, normals, triangles, colors
+
+
+def _check_volumes(volumes) -> tuple:
+    if not isinstance(volumes, (tuple, list)) or len(volumes) != 3:
+        raise ValueError("log_frame: volumes must be (centers (V,3), rotations (V,4), half_sizes (V,3))")
+    centers = _check_array("volume centers", volumes[0], (None, 3), np.float32)
+    rotations = _check_array("volume rotations", volumes[1], (len(centers), 4), np.float32)
+    half_sizes = _check_array("volume half_sizes", volumes[2], (len(centers), 3), np.float32)
+    if np.any(half_sizes <= 0.0):
+        raise ValueError("log_frame: volume half_sizes must be positive")
+    return centers, rotations, half_sizes
+
+
+def _check_timings(timings: Mapping[str, float]) -> dict[str, float]:
+    if not isinstance(timings, Mapping):
+        raise ValueError(f"log_frame: timings_ms must be a mapping stage -> milliseconds, got {type(timings).__name__}")
+    checked = {}
+    for stage, value in timings.items():
+        _check_name("timing stage", stage)
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) \
+                or not math.isfinite(value):
+            raise ValueError(f"log_frame: timing {stage!r} must be a finite number of ms, got {value!r}")
+        checked[stage] = float(value)
+    return checked
+
+
+# ---------------------------------------------------------------------------------- payload
+def skeleton_segments(pose) -> np.ndarray:
+    """Bones of a ``SkeletonPose`` as segments (S, 2, 3): parent joint -> child joint, world frame."""
+    parents = np.asarray(pose.skeleton.parents)
+    children = np.flatnonzero(parents >= 0)
+    return np.stack([pose.positions[parents[children]], pose.positions[children]], axis=1)
+
+
+def volume_ellipsoids(volumes: VolumeSet, pose) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every volume as an ellipsoid ``(centers (V,3), rotations (V,4) xyzw, half_sizes (V,3))`` in the world.
+
+    Sphere: ``(r, r, r)``. Ellipsoid: ``a_x, a_y`` and, along z, the cut range only: an ellipsoid
+    centred in the kept range ``[cut0, cut1]`` (clamped to ``+-a_z``) with half length half of it,
+    so the shown extent is what collides (ends rounded where the volume is cut flat). Capsule: the
+    ellipsoid with the capsule's extent on each local axis, ``(r_max, r_max, half_length + r_max)``
+    (thinner than the capsule towards its ends).
+    """
+    index = [pose.skeleton.index(frame) for frame in volumes.frames]
+    centers, rotations = volumes.world_poses(pose.positions[index], pose.rotations[index])
+    radii = volumes.radii
+    half_sizes = radii.copy()
+    shift = np.zeros(len(volumes))
+    ellipsoid = volumes.kinds == ELLIPSOID
+    low = np.maximum(volumes.cuts[:, 0], -radii[:, 2])
+    high = np.minimum(volumes.cuts[:, 1], radii[:, 2])
+    half_sizes[ellipsoid, 2] = 0.5 * (high - low)[ellipsoid]
+    shift[ellipsoid] = 0.5 * (high + low)[ellipsoid]
+    capsule = volumes.kinds == CAPSULE
+    widest = np.maximum(radii[:, 0], radii[:, 1])
+    half_sizes[capsule] = np.column_stack([widest, widest, radii[:, 2] + widest])[capsule]
+    centers = centers + quat_rotate(rotations, np.column_stack([np.zeros((len(shift), 2)), shift]))
+    return centers, rotations, half_sizes
+
+
+def garment_meshes(character, light_dir=DEFAULT_LIGHT_DIR) -> list[tuple]:
+    """``(name, positions, normals, triangles, colors)`` of every garment of a ``DressedCharacter``
+    at its last frame, world frame, colours shaded from the normals."""
+    from .cloth.kernels import vertex_normals
+
+    meshes = []
+    for solver, positions in zip(character.solvers, character.world_positions()):
+        triangles = solver.model.triangles
+        normals = np.empty_like(positions)
+        vertex_normals(positions, triangles, normals)
+        name = solver.model.name
+        meshes.append((name, positions, normals, triangles, shade(normals, garment_color(name), light_dir)))
+    return meshes
+
+
+def frame_payload(character, pose, light_dir=DEFAULT_LIGHT_DIR) -> dict:
+    """``log_frame``'s arguments (``garments``, ``volumes``, ``skeleton_segments``) for a
+    ``DressedCharacter`` at its last frame and the ``SkeletonPose`` it was stepped to."""
+    return {
+        "garments": garment_meshes(character, light_dir),
+        "volumes": volume_ellipsoids(character.body.volumes, pose),
+        "skeleton_segments": skeleton_segments(pose),
+    }
