@@ -1,0 +1,283 @@
+"""One character's frame loop, between the /tf pose buffer and the garments (ROS-free).
+
+The node calls ``frame(T)`` once per timer tick with ``T = D_last + now`` (memo §3); this
+module decides what happens:
+
+1. No character yet: wait for a complete skeleton under the fixed frame within the frame prefix
+   (the same tree on two consecutive frames, every frame sampled), take its rest pose from the
+   bone offsets (``offsets_pose``), map it (``auto_joint_map`` on the names without the prefix,
+   or ``joint_map_file``), fit the body (detailed volumes when a one-piece is worn), build the
+   ``DressedCharacter`` and dress it at ``T``. A skeleton that cannot be mapped is logged with the
+   missing roles and retried only when the tree changes; the loop keeps waiting.
+2. Running: sample the skeleton and root motion at ``T`` and step every garment from the last
+   frame. Stale or missing skeleton data (``PoseBuffer`` statuses) or a time that does not move
+   forward skip the frame: nothing is simulated, the last good state stays, the skip is counted
+   and logged (throttled). After a pause longer than ``RESUME_GAP_S`` (the skeleton stopped, or
+   the clock jumped back more than ``CLOCK_JUMP_BACK_S``, a looped bag) the garments are dressed
+   again at the new pose instead of being dragged across the gap in one frame. Dressing takes a
+   while (about a second of simulation, more on a busy machine) and a shorter hold leaves a gap
+   too: the frame after either covers it in pieces the solver simulates in full (``max_substeps``
+   each, at most ``MAX_CATCH_UP_FRAMES`` and ``catch_up_wall_s`` of compute), so the garment is
+   not dragged across the gap in a few substeps. Otherwise a frame longer than
+   ``max_substeps x substep`` lags (memo §3), which the diagnostics report; so does what a
+   catch-up could not cover.
+
+Changing garments or resolution (``set_garments``) re-dresses at the next frame; solver
+parameters (``set_params``) apply from the next step on.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import Counter
+from dataclasses import dataclass
+from typing import Sequence
+
+from ..body.fitting import fit_body
+from ..body.joint_map import auto_joint_map, load_joint_map
+from ..body.pose_buffer import PoseBuffer, SampleStatus
+from ..body.skeleton import Skeleton, SkeletonPose, offsets_pose
+from ..cloth.solver import FrameReport
+from ..dressing import DressedCharacter, RootMotion
+from ..params import SolverParams
+
+RESUME_GAP_S = 1.0  # a hold longer than this re-dresses (the body moved arbitrarily meanwhile)
+MAX_CATCH_UP_FRAMES = 25  # a frame covers a gap in at most this many full frames (1 s by default)
+CATCH_UP_WALL_S = 0.1  # ...and spends at most about this long on them (a busy machine lags instead)
+CLOCK_JUMP_BACK_S = 1.0  # a clock this far behind the last frame restarts (sim time reset, looped bag)
+LOG_PERIOD_S = 5.0  # the same warning at most this often
+_USABLE = (SampleStatus.OK, SampleStatus.EXTRAPOLATED)
+
+
+class Status:
+    WAITING = "waiting for skeleton"
+    UNMAPPABLE = "skeleton cannot be mapped"
+    RUNNING = "running"
+    HOLDING = "holding (skeleton stale or missing)"
+
+
+@dataclass
+class FrameResult:
+    """A simulated frame: the garments are at ``time_s``."""
+
+    time_s: float
+    pose: SkeletonPose
+    reports: list[FrameReport]  # one per garment; empty for the frame that dressed the character
+    frame_s: float  # body time since the last frame, s (0 when dressed)
+    step_s: float  # wall time of stepping (or dressing), s
+    penetration_m: float  # deepest garment point inside a volume after the frame, m
+    dressed: bool  # this frame put the garments on (first skeleton, new garments, after a gap)
+
+
+class Throttle:
+    """Lets a message of a given kind (key) through at most once per ``period_s``."""
+
+    def __init__(self, period_s: float = LOG_PERIOD_S):
+        self.period_s = period_s
+        self._last: dict[str, float] = {}
+
+    def ready(self, key: str) -> bool:
+        now = time.monotonic()
+        if now - self._last.get(key, -float("inf")) < self.period_s:
+            return False
+        self._last[key] = now
+        return True
+
+
+def root_motion_for_dressing(motion) -> RootMotion:
+    """``pose_buffer.RootMotion`` (with a usable status) as ``dressing.RootMotion``."""
+    return RootMotion(motion.position, float(motion.yaw), motion.velocity, motion.acceleration,
+                      float(motion.yaw_rate), float(motion.yaw_acceleration))
+
+
+class CharacterLoop:
+    """The garments on the character whose frames start with ``frame_prefix`` in ``buffer``."""
+
+    def __init__(self, buffer: PoseBuffer, params: SolverParams, garments: Sequence[str], resolution: float,
+                 frame_prefix: str = "", root_frame: str = "", joint_map_file: str = "", logger=None,
+                 catch_up_wall_s: float = CATCH_UP_WALL_S):
+        self.buffer = buffer
+        self.params = params
+        self.garments = list(garments)
+        self.resolution = float(resolution)
+        self.frame_prefix = frame_prefix
+        self.root_frame = root_frame
+        self.joint_map_file = joint_map_file
+        self.logger = logger
+        self.catch_up_wall_s = catch_up_wall_s
+        self.throttle = Throttle()
+        self.character: DressedCharacter | None = None
+        self.skeleton: Skeleton | None = None
+        self.joint_map: dict[str, str] = {}
+        self.status = Status.WAITING
+        self.detail = "no transform received yet"
+        self.counts: Counter[str] = Counter()  # skipped frames by reason, re-dresses, setup failures
+        self.last_time: float | None = None
+        self._candidate: Skeleton | None = None  # the tree seen on the previous attempt
+        self._refused: Skeleton | None = None  # a tree that could not be mapped (retried when it changes)
+        self._catching_up = False  # after dressing or a hold: the next frame may span a gap
+        self._just_dressed = False  # the gap since the last frame is the dressing's own compute time
+
+    # -------------------------------------------------------------------------- configuration
+    def set_params(self, params: SolverParams) -> None:
+        self.params = params
+        if self.character is not None:
+            self.character.set_params(params)
+
+    def set_garments(self, garments: Sequence[str], resolution: float) -> None:
+        """Wear other garments (or the same at another resolution): re-dressed at the next frame."""
+        self.garments = list(garments)
+        self.resolution = float(resolution)
+        self.character = None
+        self._refused = None
+
+    @property
+    def mass_points(self) -> int:
+        return 0 if self.character is None else sum(s.model.num_points for s in self.character.solvers)
+
+    def skeleton_age(self, time_s: float) -> float:
+        """How old the skeleton's newest data is at ``time_s`` (inf before any)."""
+        if self.skeleton is None:
+            return float("inf")
+        return self.buffer.sample(time_s, self.skeleton).age_s
+
+    # -------------------------------------------------------------------------- the frame
+    def frame(self, time_s: float) -> FrameResult | None:
+        """Advance the garments to ``time_s``; None when nothing new was simulated."""
+        if self.character is None:
+            return self._dress_when_ready(time_s)
+        if time_s <= self.last_time:
+            if self.last_time - time_s > CLOCK_JUMP_BACK_S:
+                return self._redress(time_s, "clock_jumped_back", f"the clock jumped back from "
+                                     f"{self.last_time:.3f} s to {time_s:.3f} s; dressing again")
+            # T_next = D_last + now goes back a little after a slow frame: normal, counted, logged quietly
+            return self._skip("time_not_advancing", f"frame time {time_s:.6f} s is not after the last "
+                              f"frame's {self.last_time:.6f} s", "info")
+        sample = self.buffer.sample(time_s, self.skeleton)
+        if sample.status not in _USABLE:
+            return self._skip(sample.status.value, f"skeleton {sample.status.value} at {time_s:.3f} s: "
+                              f"{sample.detail}; holding the last frame")
+        if time_s - self.last_time > RESUME_GAP_S and not self._just_dressed:
+            return self._redress(time_s, "resumed_after_gap", f"{time_s - self.last_time:.2f} s since the last "
+                                 "frame; dressing again at the current pose")
+        tic = time.perf_counter()
+        frame_s = time_s - self.last_time
+        budget_s = self.params.max_substeps * self.params.substep  # what one frame can simulate
+        # Right after dressing (which took a while) or a hold, cover the gap in frames the solver can
+        # simulate in full instead of one frame that lags for good: the body's motion is in the buffer
+        # (interpolated across a hold).
+        pieces = min(math.ceil(frame_s / budget_s), MAX_CATCH_UP_FRAMES) if self._catching_up else 1
+        self._catching_up = pieces > 1  # the next frame spans this one's catch-up compute: catch up too
+        self._just_dressed = False
+        start = self.last_time
+        for k in range(1, pieces + 1):
+            # out of time for catching up (a busy machine): the rest in one frame, which lags (reported)
+            last = k == pieces or time.perf_counter() - tic > self.catch_up_wall_s
+            t = time_s if last else start + frame_s * k / pieces
+            pose = sample.pose if last else self.buffer.sample(t, self.skeleton).pose
+            motion = self.buffer.root_motion(t, t - self.last_time, self.joint_map)
+            if pose is None or motion.position is None:
+                return self._skip("root_motion_" + motion.status.value, f"skeleton at {t:.3f} s: {motion.detail}")
+            reports = self.character.step(pose, root_motion_for_dressing(motion), t)
+            self.last_time = t
+            if last:
+                break
+        step_s = time.perf_counter() - tic
+        self._running(time_s)
+        return FrameResult(time_s, sample.pose, reports, frame_s, step_s, self.character.max_penetration(), False)
+
+    def _running(self, time_s: float) -> None:
+        if self.status != Status.RUNNING:
+            self._log("info", "status", f"simulating {', '.join(self.garments)} on the skeleton under "
+                                        f"{self.skeleton.names[0]!r}")
+        self.status, self.detail = Status.RUNNING, ""
+        self.last_time = time_s
+
+    def _skip(self, reason: str, message: str, level: str = "warning") -> None:
+        self.counts[reason] += 1
+        if level == "warning":
+            self.status, self.detail = Status.HOLDING, message
+            self._catching_up = True  # when the skeleton is back, follow it across the gap in full frames
+        self._log(level, reason, message)
+        return None
+
+    def _redress(self, time_s: float, reason: str, message: str) -> FrameResult | None:
+        self.counts[reason] += 1
+        self._log("warning", reason, message)
+        self.character = None
+        return self._dress_when_ready(time_s)
+
+    # -------------------------------------------------------------------------- dressing
+    def _find_root(self) -> str | None:
+        if self.root_frame:
+            return self.root_frame if self.root_frame in self.buffer.frames else None
+        fixed = self.buffer.fixed_frame
+        roots = [f for f in self.buffer.frames
+                 if f.startswith(self.frame_prefix) and self.buffer.parent(f) == fixed]
+        if not roots:
+            return None
+        # Several children of the fixed frame: the one carrying the largest tree is the skeleton.
+        return max(sorted(roots), key=lambda f: len(self.buffer.skeleton_from_tree(f).names))
+
+    def _wait(self, status: str, detail: str, level: str = "info") -> None:
+        self.status, self.detail = status, detail
+        self._log(level, status, detail)
+        return None
+
+    def _dress_when_ready(self, time_s: float) -> FrameResult | None:
+        root = self._find_root()
+        if root is None:
+            where = repr(self.root_frame) if self.root_frame else f"a child of {self.buffer.fixed_frame!r}" + (
+                f" named {self.frame_prefix}..." if self.frame_prefix else "")
+            return self._wait(Status.WAITING, f"waiting for the skeleton: no transform of {where} yet")
+        skeleton = self.buffer.skeleton_from_tree(root)
+        if skeleton != self._candidate:  # still growing, or changed: wait one more frame
+            self._candidate = skeleton
+            return self._wait(Status.WAITING, f"waiting for the skeleton under {root!r} to be complete "
+                                              f"({len(skeleton.names)} frames so far)")
+        if skeleton == self._refused:
+            return self._wait(Status.UNMAPPABLE, self.detail, "error")
+        sample = self.buffer.sample(time_s, skeleton)
+        if sample.status not in _USABLE:
+            return self._wait(Status.WAITING, f"waiting for the skeleton under {root!r}: {sample.status.value}: "
+                                              f"{sample.detail}")
+        tic = time.perf_counter()
+        try:
+            character, joint_map = self._build(skeleton, sample.pose)
+        except (ValueError, KeyError) as err:  # JointMapError, BodyConfigError, impossible geometry
+            self._refused = skeleton
+            self.counts["setup_failed"] += 1
+            return self._wait(Status.UNMAPPABLE, f"cannot dress the skeleton under {root!r}: {err}", "error")
+        motion = self.buffer.root_motion(time_s, 1.0 / 60.0, joint_map)
+        character.dress(sample.pose, time_s, root_motion_for_dressing(motion) if motion.position is not None else None)
+        self.character, self.skeleton, self.joint_map = character, skeleton, joint_map
+        self._catching_up = self._just_dressed = True
+        self._log("info", "dressed", f"dressed {', '.join(self.garments)} ({self.mass_points} mass points) on "
+                                     f"{len(skeleton.names)} frames under {root!r}")
+        self._running(time_s)
+        return FrameResult(time_s, sample.pose, [], 0.0, time.perf_counter() - tic, character.max_penetration(), True)
+
+    def _build(self, skeleton: Skeleton, pose: SkeletonPose) -> tuple[DressedCharacter, dict[str, str]]:
+        rest = offsets_pose(pose)
+        prefix = self.frame_prefix
+        bare = Skeleton(tuple(n[len(prefix):] if n.startswith(prefix) else n for n in skeleton.names),
+                        skeleton.parents)
+        if self.joint_map_file:
+            bare_map = load_joint_map(self.joint_map_file, bare)
+        else:
+            bare_map = auto_joint_map(bare, rest.positions)
+        joint_map = {role: skeleton.names[bare.index(name)] for role, name in bare_map.items()}
+        body = fit_body(rest, joint_map, detailed="one_piece" in self.garments)
+        return DressedCharacter(body, self.garments, self.params, self.resolution), joint_map
+
+    def _log(self, level: str, key: str, message: str) -> None:
+        if self.logger is None or not self.throttle.ready(key):
+            return
+        # one call per severity: rclpy's logger refuses two severities from one line of code
+        if level == "error":
+            self.logger.error(message)
+        elif level == "warning":
+            self.logger.warning(message)
+        else:
+            self.logger.info(message)

@@ -1,0 +1,87 @@
+"""Per-window frame statistics for the diagnostics status (ROS-free).
+
+The node records every tick (its compute time) and every simulated frame (the garments'
+``FrameReport``s, publish time, penetration); ``window()`` returns the figures since the last
+call and starts a new window. Stage times are per frame, summed over the garments (Table 1's
+columns: integration, length correction, collision handling, publishing).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Sequence
+
+from ..cloth.solver import FrameReport
+
+
+class FrameStats:
+    def __init__(self) -> None:
+        self.lag_s = 0.0  # the garments' lag behind the skeleton at the last frame (the largest)
+        self.total_frames = 0
+        self._start()
+
+    def _start(self) -> None:
+        self._window_start = time.monotonic()
+        self._ticks = 0
+        self._tick_s = 0.0
+        self._frames = 0
+        self._stepped = 0
+        self._substeps = 0
+        self._stages = {"integration": 0.0, "correction": 0.0, "collision": 0.0, "publish": 0.0}
+        self._penetration = 0.0
+        self._stretch = 0.0
+        self._hits = [0, 0]
+        self._body_s = 0.0
+        self._simulated_s = 0.0
+
+    def record_tick(self, compute_s: float) -> None:
+        self._ticks += 1
+        self._tick_s += compute_s
+
+    def record_frame(self, reports: Sequence[FrameReport], frame_s: float, penetration_m: float) -> None:
+        """A simulated frame: the garments' reports (none for a dressing frame), the body time it
+        covered, the deepest penetration after it."""
+        self._frames += 1
+        self.total_frames += 1
+        self._penetration = max(self._penetration, penetration_m)
+        if not reports:  # the dressing frame
+            return
+        self._stepped += 1
+        self._substeps += max(r.substeps for r in reports)
+        self._stages["integration"] += sum(r.integration_s for r in reports)
+        self._stages["correction"] += sum(r.correction_s for r in reports)
+        self._stages["collision"] += sum(r.collision_s for r in reports)
+        self._stretch = max(self._stretch, max(r.max_stretch for r in reports))
+        self._hits = [sum(r.static_hits for r in reports), sum(r.dynamic_hits for r in reports)]
+        self.lag_s = max(r.lag_s for r in reports)
+        self._body_s += frame_s
+        self._simulated_s += min(r.simulated_s for r in reports)
+
+    def record_publish(self, seconds: float) -> None:
+        self._stages["publish"] += seconds
+
+    def window(self) -> dict[str, float]:
+        """Figures since the last call: fps (simulated frames per second of wall time), mean stage
+        and tick times in ms, mean substeps, the window's worst penetration and stretch, and
+        ``lag_fraction``, the share of the body's time the garments did not simulate in the window
+        (past ``max_substeps``); ``lag_s`` is the garments' total lag since they were dressed."""
+        elapsed = max(time.monotonic() - self._window_start, 1e-9)
+        per_frame = max(self._frames, 1)
+        per_step = max(self._stepped, 1)
+        figures = {
+            "fps": self._frames / elapsed,
+            "ticks": float(self._ticks),
+            "frames": float(self._frames),
+            "substeps": self._substeps / per_step,
+            "lag_s": self.lag_s,
+            "lag_fraction": 1.0 - self._simulated_s / self._body_s if self._body_s > 0.0 else 0.0,
+            "tick_ms": 1e3 * self._tick_s / max(self._ticks, 1),
+            **{f"{stage}_ms": 1e3 * total / (per_frame if stage == "publish" else per_step)
+               for stage, total in self._stages.items()},
+            "max_penetration_mm": 1e3 * self._penetration,
+            "max_stretch": self._stretch,
+            "static_hits": float(self._hits[0]),
+            "dynamic_hits": float(self._hits[1]),
+        }
+        self._start()
+        return figures

@@ -1,0 +1,442 @@
+"""``garment_sim_node``: the ROS 2 adapter around the character loop.
+
+Wires topics, parameters and timers to the ROS-free modules:
+
+- ``/tf`` and ``/tf_static`` (``tf2_msgs/TFMessage``; static: transient local) -> ``tf_input.ingest``
+  into a ``PoseBuffer``; only frames starting with ``frame_prefix`` are this character's.
+- a timer at ``rate_hz``: ``T_next = D_last + now`` (the node's clock, so ``use_sim_time`` works;
+  ``D_last`` the last tick's compute time) -> ``CharacterLoop.frame(T_next)`` -> the garments (and
+  body volumes) on ``~/markers`` as a serialized ``visualization_msgs/MarkerArray`` stamped
+  ``T_next`` in ``fixed_frame``, and to Rerun when ``rerun_sink`` is not off.
+- ``/diagnostics`` (``diagnostic_msgs/DiagnosticArray``) every ``diagnostics_period``: fps, substeps,
+  lag, stage times, penetration, skeleton age, counts of refused input (``rejected_*``, ``input_*``)
+  and of skipped frames and re-dresses (``loop_*``); OK running, WARN waiting, holding or lagging,
+  ERROR for a skeleton that cannot be mapped or a frame that failed since the last status.
+- parameters: every row of ``params.PARAMETERS`` and ``ros.settings.NODE_PARAMETERS``, declared
+  with descriptors. A change (parameter services, ``set_parameters``, the watched params file) is
+  validated against the tables first: a bad value is refused with the table's reason and the old
+  value stays; a good one takes effect at the next frame.
+"""
+
+from __future__ import annotations
+
+import array
+import sys
+import time
+import traceback
+from collections import Counter
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import Header
+from tf2_msgs.msg import TFMessage
+from visualization_msgs.msg import MarkerArray
+
+from ..body.pose_buffer import PoseBuffer
+from ..markers import frame_markers
+from ..params import Param, ParameterError, SolverParams
+from ..rerun_log import RerunLogger, frame_payload
+from .character_loop import CharacterLoop, FrameResult, Status, Throttle
+from .frame_stats import FrameStats
+from .marker_cdr import DELETEALL, MarkerData, serialize_marker_array
+from .params_file import FileWatch, ParamsFileError, read_node_parameters
+from .settings import ALL_PARAMETERS, PARAMETER_ROWS, SOLVER_PARAMETER_NAMES, is_read_only
+from .tf_input import IngestResult, ingest, seconds_to_stamp
+
+NODE_NAME = "garment_sim_node"
+LAG_WARNING_FRACTION = 0.1  # diagnostics turn WARN when the garments fall behind by this share of the time
+_TF_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+_TF_STATIC_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
+                            durability=DurabilityPolicy.TRANSIENT_LOCAL)
+_REDRESS_KEYS = ("garments", "resolution")
+_CLEAR_KEYS = ("garments", "resolution", "marker_namespace", "publish_volumes")
+
+
+def _parameter_type(row: Param) -> Parameter.Type:
+    default = row.default
+    if isinstance(default, bool):
+        return Parameter.Type.BOOL
+    if isinstance(default, list):
+        return Parameter.Type.STRING_ARRAY
+    if isinstance(default, tuple):
+        return Parameter.Type.DOUBLE_ARRAY
+    if isinstance(default, int):
+        return Parameter.Type.INTEGER
+    if isinstance(default, float):
+        return Parameter.Type.DOUBLE
+    return Parameter.Type.STRING
+
+
+def _ros_value(value: Any) -> Any:
+    """A validated value as rclpy stores it (tuples as lists)."""
+    return list(value) if isinstance(value, tuple) else value
+
+
+def _plain(value: Any) -> Any:
+    """A parameter value as Python scalars and lists (rclpy gives arrays as ``array.array``)."""
+    if isinstance(value, (array.array, np.ndarray)):
+        return value.tolist()
+    return value
+
+
+def descriptor(row: Param) -> ParameterDescriptor:
+    """The ``ParameterDescriptor`` of a table row: description with unit and allowed values, range, read-only."""
+    unit = f" [{row.unit}]" if row.unit and row.unit != "1" else ""
+    result = ParameterDescriptor(
+        name=row.name, type=_parameter_type(row).value, description=f"{row.description}{unit}",
+        additional_constraints=f"allowed: {row.allowed()}", read_only=bool(getattr(row, "read_only", False)))
+    kind = _parameter_type(row)
+    if row.low is not None and row.high is not None:
+        if kind == Parameter.Type.DOUBLE:
+            result.floating_point_range = [FloatingPointRange(from_value=float(row.low), to_value=float(row.high),
+                                                              step=0.0)]
+        elif kind == Parameter.Type.INTEGER:
+            result.integer_range = [IntegerRange(from_value=int(row.low), to_value=int(row.high), step=1)]
+    return result
+
+
+def params_file_from_args(args: Sequence[str]) -> str:
+    """The last ``--params-file PATH`` among ROS arguments, or ''."""
+    args = list(args)
+    paths = [args[i + 1] for i, arg in enumerate(args[:-1]) if arg == "--params-file"]
+    return paths[-1] if paths else ""
+
+
+class GarmentSimNode(Node):
+    """Dresses the character of ``frame_prefix`` on /tf; see the module docstring."""
+
+    def __init__(self, node_name: str = NODE_NAME, *, params_file_hint: str = "", **kwargs):
+        super().__init__(node_name, **kwargs)
+        self._throttle = Throttle()
+        self._params_file_hint = params_file_hint
+        self.values: dict[str, Any] = self._declare_parameters()
+        self.solver_params = SolverParams(**{name: self.values[name] for name in SOLVER_PARAMETER_NAMES})
+        v = self.values
+        self.buffer = PoseBuffer(v["fixed_frame"], max_age_s=v["max_skeleton_age"],
+                                 max_extrapolation_s=v["max_extrapolation"])
+        self.loop = CharacterLoop(self.buffer, self.solver_params, v["garments"], v["resolution"],
+                                  frame_prefix=v["frame_prefix"], root_frame=v["root_frame"],
+                                  joint_map_file=v["joint_map_file"], logger=self.get_logger())
+        self.stats = FrameStats()
+        self.input_counts: Counter[str] = Counter()  # transforms stored / of other characters / refused
+        self.frame_errors = 0
+        self._frame_errors_reported = 0
+        self.last_diagnostics: dict[str, str] = {}
+        self.params_file_errors = 0
+        self.params_file_message = ""
+        self._pending: dict[str, Any] = {}
+        self._clear_markers = False
+        self._last_compute_s = 0.0
+        self._watch: FileWatch | None = None
+
+        self.create_subscription(TFMessage, "/tf", self._on_tf, _TF_QOS)
+        self.create_subscription(TFMessage, "/tf_static", self._on_tf_static, _TF_STATIC_QOS)
+        self.marker_publisher = self.create_publisher(MarkerArray, "~/markers", 2)
+        self.diagnostics_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.frame_timer = self.create_timer(1.0 / v["rate_hz"], self._on_frame_timer)
+        self.diagnostics_timer = self.create_timer(v["diagnostics_period"], self.publish_diagnostics)
+        self.watch_timer = self.create_timer(v["watch_period"], self.poll_params_file)
+        self.rerun = self._create_rerun_logger()
+
+    # ------------------------------------------------------------------------------ parameters
+    def _declare_parameters(self) -> dict[str, Any]:
+        """Declare every table row; start-up values (--params-file, -p) are validated like runtime ones."""
+        overrides = getattr(self, "_parameter_overrides", {})
+        values = {}
+        for row in ALL_PARAMETERS:
+            value = row.default
+            if row.name in overrides:
+                given = _plain(overrides[row.name].value)
+                try:
+                    value = row.check(given)
+                except ParameterError as err:
+                    self.get_logger().error(f"start-up parameter refused: {err}; using the default {row.default!r}")
+            self.declare_parameter(row.name, _ros_value(value), descriptor(row), ignore_override=True)
+            values[row.name] = value
+        unknown = sorted(set(overrides) - set(PARAMETER_ROWS) - {"use_sim_time"})
+        if unknown:
+            self.get_logger().warning(f"unknown start-up parameter(s) {', '.join(unknown)} ignored; known: "
+                                      f"{', '.join(PARAMETER_ROWS)}")
+        return values
+
+    def _validate(self, parameters: Sequence[Parameter]) -> tuple[list[Parameter], dict[str, Any]]:
+        """Parameters typed as declared, and the table values they set; ``ParameterError`` for a bad one."""
+        checked, changes = [], {}
+        for parameter in parameters:
+            name = parameter.name
+            if name not in PARAMETER_ROWS:
+                checked.append(parameter)  # use_sim_time, or undeclared: rclpy's own rules apply
+                continue
+            if parameter.type_ == Parameter.Type.NOT_SET:
+                raise ParameterError(f"{name}: cannot be unset; allowed: {PARAMETER_ROWS[name].allowed()}")
+            value = PARAMETER_ROWS[name].check(_plain(parameter.value))
+            if is_read_only(name):
+                raise ParameterError(f"{name}: read-only, set at start (--params-file or -p); running with "
+                                     f"{self.values[name]!r}, got {value!r}")
+            checked.append(Parameter(name, _parameter_type(PARAMETER_ROWS[name]), _ros_value(value)))
+            changes[name] = value
+        solver_changes = {k: v for k, v in changes.items() if k in SOLVER_PARAMETER_NAMES}
+        if solver_changes:
+            self.solver_params.replace(**solver_changes)
+        return checked, changes
+
+    def set_parameters_atomically(self, parameter_list: list[Parameter]) -> SetParametersResult:
+        """rclpy's, after validating against the parameter tables (the parameter services call this)."""
+        try:
+            checked, changes = self._validate(parameter_list)
+        except ParameterError as err:
+            return SetParametersResult(successful=False, reason=str(err))
+        result = super().set_parameters_atomically(checked)
+        if result.successful:
+            self._accept(changes)
+        return result
+
+    def set_parameters(self, parameter_list: list[Parameter]) -> list[SetParametersResult]:
+        return [self.set_parameters_atomically([parameter]) for parameter in parameter_list]
+
+    def _accept(self, changes: dict[str, Any]) -> None:
+        self.values.update(changes)
+        self._pending.update(changes)
+        if "rate_hz" in changes:
+            self.frame_timer.timer_period_ns = int(1e9 / changes["rate_hz"])
+        if "diagnostics_period" in changes:
+            self.diagnostics_timer.timer_period_ns = int(1e9 * changes["diagnostics_period"])
+        if "watch_period" in changes:
+            self.watch_timer.timer_period_ns = int(1e9 * changes["watch_period"])
+
+    def _apply_pending(self) -> None:
+        """Parameter changes take effect here, at the start of a frame."""
+        changes, self._pending = self._pending, {}
+        if not changes:
+            return
+        if SOLVER_PARAMETER_NAMES & changes.keys():
+            self.solver_params = SolverParams(**{name: self.values[name] for name in SOLVER_PARAMETER_NAMES})
+            self.loop.set_params(self.solver_params)
+        if any(key in changes for key in _REDRESS_KEYS):
+            self.loop.set_garments(self.values["garments"], self.values["resolution"])
+        if any(key in changes for key in _CLEAR_KEYS):
+            self._clear_markers = True
+        self.buffer.max_age_s = self.values["max_skeleton_age"]
+        self.buffer.max_extrapolation_s = self.values["max_extrapolation"]
+
+    # ------------------------------------------------------------------------------ params file
+    def params_file_path(self) -> str:
+        return self.values["params_file"] or self._params_file_hint
+
+    def poll_params_file(self) -> None:
+        """Timer: re-apply the params file when its modification time or size changed."""
+        path = self.params_file_path()
+        if not self.values["watch_params_file"] or not path:
+            if self.values["watch_params_file"]:
+                self._log("warning", "params_file", "watch_params_file is on but params_file is empty and no "
+                                                    "--params-file was given: nothing to watch")
+            self._watch = None
+            return
+        if self._watch is None or self._watch.path != Path(path):
+            self._watch = FileWatch(path)
+            if path == self._params_file_hint:
+                self._watch.changed()  # loaded at start by --params-file (under any -p): apply later edits only
+        if self._watch.changed():
+            self.apply_params_file(path)
+
+    def apply_params_file(self, path: str) -> bool:
+        """Apply the node's section of ``path``: all of it, or (any bad key or value) none of it."""
+        try:
+            given = read_node_parameters(path, self.get_fully_qualified_name())
+        except ParamsFileError as err:
+            return self._refuse_params_file([str(err)])
+        if not given:
+            self._log("warning", "params_file_section", f"{path}: no ros__parameters section matches this node "
+                      f"({self.get_fully_qualified_name()}); name it so, or /**/{self.get_name()} for every namespace")
+        problems, changes = [], []
+        for name, raw in given.items():
+            raw = _plain(raw)
+            if name not in PARAMETER_ROWS:
+                if self.has_parameter(name):
+                    if self.get_parameter(name).value != raw:
+                        changes.append(Parameter(name, value=raw))
+                else:
+                    problems.append(f"{path}: {name}: unknown parameter; known: {', '.join(PARAMETER_ROWS)}")
+                continue
+            try:
+                value = PARAMETER_ROWS[name].check(raw)
+            except ParameterError as err:
+                problems.append(f"{path}: {err}")
+                continue
+            if value == self.values[name]:
+                continue
+            if is_read_only(name):
+                problems.append(f"{path}: {name}: read-only, set at start; running with {self.values[name]!r}, "
+                                f"the file says {value!r} (restart the node to change it)")
+            else:
+                changes.append(Parameter(name, value=_ros_value(value)))
+        if problems:
+            return self._refuse_params_file(problems)
+        if changes:
+            result = self.set_parameters_atomically(changes)
+            if not result.successful:
+                return self._refuse_params_file([f"{path}: {result.reason}"])
+        self.params_file_message = f"{path}: applied " + (
+            ", ".join(f"{p.name}={_plain(p.value)!r}" for p in changes) if changes else "(no change)")
+        self.get_logger().info(self.params_file_message)
+        return True
+
+    def _refuse_params_file(self, problems: list[str]) -> bool:
+        self.params_file_errors += 1
+        self.params_file_message = "; ".join(problems) + "; keeping the last good configuration"
+        self.get_logger().error(self.params_file_message)
+        return False
+
+    # ------------------------------------------------------------------------------ input
+    def _on_tf(self, message: TFMessage) -> None:
+        self._count_input(ingest(self.buffer, message, self.values["frame_prefix"], static=False))
+
+    def _on_tf_static(self, message: TFMessage) -> None:
+        self._count_input(ingest(self.buffer, message, self.values["frame_prefix"], static=True))
+
+    def _count_input(self, result: IngestResult) -> None:
+        self.input_counts["stored"] += result.stored
+        self.input_counts["other_character"] += result.other_character
+        self.input_counts["refused"] += result.refused
+        if result.refused:
+            self._log("warning", "tf_refused",
+                      f"refused /tf input (counted in diagnostics), e.g. {result.first_refusal}")
+
+    # ------------------------------------------------------------------------------ the frame
+    def _on_frame_timer(self) -> None:
+        tic = time.perf_counter()
+        dressed = False
+        try:
+            self._apply_pending()
+            frame_time = self._last_compute_s + self.get_clock().now().nanoseconds * 1e-9  # T_next
+            result = self.loop.frame(frame_time)
+            if result is not None:
+                self._publish_frame(result)
+                dressed = result.dressed
+        except Exception:  # a frame must never take the node down: report it and go on
+            self.frame_errors += 1
+            self._log("error", "frame_error", f"frame failed (counted in diagnostics):\n{traceback.format_exc()}")
+        compute_s = time.perf_counter() - tic
+        self.stats.record_tick(compute_s)
+        # D_last: dressing is no frame's compute time, T_next of the next frame must not jump by it
+        self._last_compute_s = 0.0 if dressed else compute_s
+
+    def _publish_frame(self, result: FrameResult) -> None:
+        tic = time.perf_counter()
+        payload = frame_payload(self.loop.character, result.pose)
+        v = self.values
+        stamp = seconds_to_stamp(result.time_s)
+        markers = frame_markers(payload, v["marker_namespace"], v["fixed_frame"], stamp, v["publish_volumes"])
+        if self._clear_markers or result.dressed:  # garments or namespaces changed: drop the old markers
+            markers.insert(0, MarkerData(ns="", id=0, type=0, action=DELETEALL, frame_id=v["fixed_frame"],
+                                         stamp=stamp))
+            self._clear_markers = False
+        self.marker_publisher.publish(serialize_marker_array(markers))
+        publish_s = time.perf_counter() - tic
+        self.stats.record_frame(result.reports, result.frame_s, result.penetration_m)
+        self.stats.record_publish(publish_s)
+        if self.rerun is not None:
+            self._log_rerun(result, payload, publish_s)
+
+    def _log_rerun(self, result: FrameResult, payload: dict, publish_s: float) -> None:
+        reports = result.reports
+        timings_ms = {"integration": sum(r.integration_s for r in reports),
+                      "correction": sum(r.correction_s for r in reports),
+                      "collision": sum(r.collision_s for r in reports), "publish": publish_s}
+        try:
+            self.rerun.log_frame(result.time_s, timings_ms={k: 1e3 * s for k, s in timings_ms.items()}, **payload)
+        except Exception as err:  # the viewer went away, the disk is full...: markers go on
+            self.get_logger().error(f"Rerun logging failed, switched off: {err}")
+            self.rerun = None
+
+    def _create_rerun_logger(self) -> RerunLogger | None:
+        v = self.values
+        if v["rerun_sink"] == "off":
+            return None
+        try:
+            return RerunLogger(sink=v["rerun_sink"], path=v["rerun_path"], url=v["rerun_url"] or None,
+                               recording_name=self.get_fully_qualified_name())
+        except Exception as err:
+            self.get_logger().error(f"rerun_sink {v['rerun_sink']!r} failed, Rerun logging is off: {err}")
+            return None
+
+    # ------------------------------------------------------------------------------ diagnostics
+    def publish_diagnostics(self) -> None:
+        figures = self.stats.window()
+        now = self.get_clock().now()
+        loop = self.loop
+        lagging = figures["lag_fraction"] > LAG_WARNING_FRACTION
+        level, message = DiagnosticStatus.OK, loop.status
+        failed = self.frame_errors > self._frame_errors_reported  # a frame failed since the last status
+        self._frame_errors_reported = self.frame_errors
+        if loop.status == Status.UNMAPPABLE or failed:
+            level = DiagnosticStatus.ERROR
+        elif loop.status != Status.RUNNING or lagging:
+            level = DiagnosticStatus.WARN
+        if loop.detail:
+            message = f"{loop.status}: {loop.detail}"
+        elif lagging:
+            message = (f"{loop.status}; too slow: the garments simulated only {1 - figures['lag_fraction']:.0%} of "
+                       f"the body's time (max_substeps), {figures['lag_s']:.3f} s behind in total")
+        values = {key: f"{value:.6g}" for key, value in figures.items()}
+        values.update({
+            "status": loop.status,
+            "garments": " ".join(loop.garments),
+            "mass_points": str(loop.mass_points),
+            "skeleton_age_s": f"{loop.skeleton_age(now.nanoseconds * 1e-9):.6g}",
+            "total_frames": str(self.stats.total_frames),
+            "frame_errors": str(self.frame_errors),
+            "params_file_errors": str(self.params_file_errors),
+        })
+        values.update({f"input_{key}": str(count) for key, count in sorted(self.input_counts.items())})
+        values.update({f"rejected_{key}": str(count) for key, count in sorted(self.buffer.rejected.items())})
+        values.update({f"adjusted_{key}": str(count) for key, count in sorted(self.buffer.adjusted.items())})
+        values.update({f"loop_{key}": str(count) for key, count in sorted(loop.counts.items())})
+        self.last_diagnostics = values
+        status = DiagnosticStatus(level=level, name=f"garment_sim: {self.get_fully_qualified_name()}",
+                                  message=message,
+                                  hardware_id=self.values["frame_prefix"] or self.values["fixed_frame"],
+                                  values=[KeyValue(key=k, value=v) for k, v in values.items()])
+        self.diagnostics_publisher.publish(DiagnosticArray(header=Header(stamp=now.to_msg()), status=[status]))
+
+    def _log(self, level: str, key: str, message: str) -> None:
+        if not self._throttle.ready(key):
+            return
+        # one call per severity: rclpy's logger refuses two severities from one line of code
+        if level == "error":
+            self.get_logger().error(message)
+        else:
+            self.get_logger().warning(message)
+
+    def destroy_node(self) -> None:
+        if self.rerun is not None:
+            self.rerun.close()
+            self.rerun = None
+        super().destroy_node()
+
+
+def main(args: list[str] | None = None) -> int:
+    """Console entry point ``garment_sim_node``, e.g.
+    ``garment_sim_node --ros-args --params-file config/garment_sim.yaml -r __ns:=/alice -p frame_prefix:=alice/``."""
+    rclpy.init(args=args)
+    node = GarmentSimNode(params_file_hint=params_file_from_args(sys.argv if args is None else args))
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

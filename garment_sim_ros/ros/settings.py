@@ -1,0 +1,121 @@
+"""The node's own parameters, one table beside the solver's (ROS-free).
+
+``NODE_PARAMETERS`` lists what ``garment_sim_node`` declares besides ``params.PARAMETERS``:
+name, default, unit, range or choices, meaning, and whether it is read-only (fixed at start:
+``--ros-args --params-file`` or ``-p``). ``ALL_PARAMETERS`` is both tables, in declaration order;
+``check_value(name, value)`` validates one value against its row and returns it normalised (ints
+to floats for real-valued parameters), raising ``ParameterError`` naming the value and what is
+allowed. The README's parameter section and the node's descriptors are made from these tables.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from ..cloth.garments import GARMENT_NAMES, MAX_RESOLUTION
+from ..params import PARAMETERS, Param, ParameterError
+
+RERUN_SINKS = ("off", "save", "connect", "serve")
+
+
+@dataclass(frozen=True)
+class NodeParam(Param):
+    """A node parameter. Besides ``Param``'s types: bool, and string lists (``default`` a list;
+    every entry one of ``choices``, at least one, no repeats)."""
+
+    read_only: bool = False
+
+    def check(self, value: Any) -> Any:
+        if isinstance(self.default, bool):
+            if not isinstance(value, bool):
+                raise ParameterError(f"{self.name}: got {value!r} ({type(value).__name__}); allowed: true or false")
+            return value
+        if isinstance(self.default, list):
+            if (not isinstance(value, (list, tuple)) or not value or not all(isinstance(v, str) for v in value)
+                    or (self.choices and not set(value) <= set(self.choices)) or len(set(value)) != len(value)):
+                raise ParameterError(f"{self.name}: got {value!r}; allowed: a non-empty list of distinct names, "
+                                     f"each one of {', '.join(self.choices)}")
+            return list(value)
+        if isinstance(self.default, str) and not self.choices:
+            if not isinstance(value, str):
+                raise ParameterError(f"{self.name}: got {value!r} ({type(value).__name__}); allowed: a string")
+            return value
+        return super().check(value)
+
+    def allowed(self) -> str:
+        if isinstance(self.default, bool):
+            return "true or false"
+        if isinstance(self.default, list):
+            return "a non-empty list of " + ", ".join(self.choices)
+        if isinstance(self.default, str) and not self.choices:
+            return "a string"
+        return super().allowed()
+
+
+NODE_PARAMETERS: tuple[NodeParam, ...] = (
+    # input
+    NodeParam("fixed_frame", "world", "", None, None,
+              "frame the skeleton is sampled in and the markers are published in", read_only=True),
+    NodeParam("frame_prefix", "", "", None, None,
+              "only /tf frames whose name starts with this belong to this character (e.g. alice/); "
+              "empty: every frame", read_only=True),
+    NodeParam("root_frame", "", "", None, None,
+              "the skeleton's root frame (full name, with the prefix); empty: the child of fixed_frame "
+              "within the prefix", read_only=True),
+    NodeParam("joint_map_file", "", "", None, None,
+              "YAML role -> frame name (names without frame_prefix); empty: recognised from the names",
+              read_only=True),
+    NodeParam("max_skeleton_age", 0.5, "s", 0.01, 60.0,
+              "the skeleton is stale when its newest transform is older than this at the frame time; "
+              "stale frames are not simulated (the last good state stays) and are counted"),
+    NodeParam("max_extrapolation", 0.1, "s", 0.0, 1.0,
+              "past the newest transform the skeleton moves on at its last velocity for at most this long"),
+    # loop
+    NodeParam("rate_hz", 60.0, "Hz", 1.0, 1000.0,
+              "frame timer rate; each frame samples the skeleton at T_next = D_last + now"),
+    NodeParam("garments", ["pants"], "", None, None,
+              "garments worn, each simulated and published on its own; changing it re-dresses the character",
+              GARMENT_NAMES),
+    NodeParam("resolution", 1.0, "1", 0.25, MAX_RESOLUTION,
+              "garment vertex density (1 = about the memo's sizes); changing it re-dresses the character"),
+    # outputs
+    NodeParam("marker_namespace", "garment", "", None, None,
+              "marker namespace: garments on <ns>/<garment>, body volumes on <ns>/volumes"),
+    NodeParam("publish_volumes", True, "", None, None, "also publish the body volumes as SPHERE markers"),
+    NodeParam("diagnostics_period", 1.0, "s", 0.1, 60.0, "period of the /diagnostics status"),
+    NodeParam("rerun_sink", "off", "", None, None,
+              "Rerun logging: off, save (to rerun_path), connect (to the viewer at rerun_url) or serve "
+              "(gRPC on every interface)", RERUN_SINKS, read_only=True),
+    NodeParam("rerun_path", "out/garment_sim.rrd", "", None, None,
+              "the .rrd file written when rerun_sink is save", read_only=True),
+    NodeParam("rerun_url", "", "", None, None,
+              "viewer address when rerun_sink is connect; empty: rerun+http://127.0.0.1:9876/proxy", read_only=True),
+    # configuration file
+    NodeParam("watch_params_file", False, "", None, None,
+              "re-apply params_file whenever it changes (the node's section, validated; a bad file is "
+              "refused whole and logged)"),
+    NodeParam("params_file", "", "", None, None,
+              "the parameter YAML to watch; empty: the last --params-file given at start"),
+    NodeParam("watch_period", 1.0, "s", 0.05, 60.0, "how often params_file's modification time is checked"),
+)
+
+ALL_PARAMETERS: tuple[Param, ...] = PARAMETERS + NODE_PARAMETERS
+PARAMETER_ROWS: dict[str, Param] = {p.name: p for p in ALL_PARAMETERS}
+SOLVER_PARAMETER_NAMES = frozenset(p.name for p in PARAMETERS)
+
+
+def is_read_only(name: str) -> bool:
+    return bool(getattr(PARAMETER_ROWS[name], "read_only", False))
+
+
+def check_value(name: str, value: Any) -> Any:
+    """``value`` normalised for parameter ``name``, or ``ParameterError`` naming what is allowed."""
+    row = PARAMETER_ROWS.get(name)
+    if row is None:
+        raise ParameterError(f"unknown parameter {name!r}; known: {', '.join(PARAMETER_ROWS)}")
+    return row.check(value)
+
+
+def default_values() -> dict[str, Any]:
+    return {p.name: (list(p.default) if isinstance(p.default, list) else p.default) for p in ALL_PARAMETERS}

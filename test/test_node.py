@@ -1,0 +1,518 @@
+"""garment_sim_node in-process: rclpy contexts of their own (``ros_context``), no launch.
+
+A small publisher node plays ``ProceduralCharacter(walk())`` on /tf (one TFMessage per tick, frames
+under an optional prefix); the garment node under test runs in the same executor.
+"""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import rclpy
+import yaml
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from geometry_msgs.msg import TransformStamped
+from rcl_interfaces.msg import ParameterType
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.parameter import Parameter
+from rclpy.parameter_client import AsyncParameterClient
+from rclpy.serialization import deserialize_message
+from tf2_msgs.msg import TFMessage
+from visualization_msgs.msg import Marker, MarkerArray
+
+from garment_sim_ros.body.pose_buffer import PoseBuffer
+from garment_sim_ros.body.procedural import ProceduralCharacter, walk
+from garment_sim_ros.params import DEFAULT_PARAMS, PARAMETERS
+from garment_sim_ros.ros.character_loop import CharacterLoop, Status
+from garment_sim_ros.ros.node import GarmentSimNode, params_file_from_args
+from garment_sim_ros.ros.params_file import ParamsFileError, node_parameters, read_node_parameters
+from garment_sim_ros.ros.settings import ALL_PARAMETERS, NODE_PARAMETERS, check_value
+from garment_sim_ros.ros.tf_input import ingest, seconds_to_stamp, stamp_seconds
+
+CONFIG = Path(__file__).resolve().parents[1] / "config" / "garment_sim.yaml"
+CHARACTER = ProceduralCharacter(walk())
+
+
+def _transform(stamp, parent: str, child: str, xyz, xyzw) -> TransformStamped:
+    t = TransformStamped()
+    t.header.stamp = stamp
+    t.header.frame_id, t.child_frame_id = parent, child
+    tr, r = t.transform.translation, t.transform.rotation
+    tr.x, tr.y, tr.z = (float(v) for v in xyz)
+    r.x, r.y, r.z, r.w = (float(v) for v in xyzw)
+    return t
+
+
+class SkeletonPublisher:
+    """Publishes the walking character's joints on /tf at 60 Hz, frames named ``prefix + joint``,
+    the root offset by ``offset`` in the world; ``running`` switches it on and off."""
+
+    def __init__(self, context, prefix: str = "", offset=(0.0, 0.0, 0.0), name: str = "skeleton_player"):
+        self.node = rclpy.create_node(name, context=context)
+        self.prefix, self.offset = prefix, np.asarray(offset, float)
+        self.publisher = self.node.create_publisher(TFMessage, "/tf", 100)
+        self.running = True
+        self.node.create_timer(1.0 / 60.0, self.tick)
+
+    def message(self, stamp, t: float) -> TFMessage:
+        translations, rotations = CHARACTER.local_transforms(t)
+        translations = translations.copy()
+        translations[0] += self.offset
+        names, parents = CHARACTER.skeleton.names, CHARACTER.skeleton.parents
+        return TFMessage(transforms=[
+            _transform(stamp, "world" if parents[i] < 0 else self.prefix + names[parents[i]], self.prefix + name,
+                       translations[i], rotations[i])
+            for i, name in enumerate(names)])
+
+    def tick(self) -> None:
+        if self.running:
+            now = self.node.get_clock().now()
+            self.publisher.publish(self.message(now.to_msg(), now.nanoseconds * 1e-9))
+
+
+class Probe:
+    """Collects the raw marker messages of one node and the /diagnostics statuses."""
+
+    def __init__(self, context, markers_topic: str, name: str = "probe"):
+        self.node = rclpy.create_node(name, context=context)
+        self.markers: list[bytes] = []
+        self.diagnostics: list[DiagnosticStatus] = []
+        self.node.create_subscription(MarkerArray, markers_topic, self.markers.append, 10, raw=True)
+        self.node.create_subscription(DiagnosticArray, "/diagnostics",
+                                      lambda msg: self.diagnostics.extend(msg.status), 10)
+
+    def last_markers(self) -> MarkerArray:
+        return deserialize_message(self.markers[-1], MarkerArray)
+
+    def statuses_of(self, node: GarmentSimNode) -> list[DiagnosticStatus]:
+        name = f"garment_sim: {node.get_fully_qualified_name()}"
+        return [s for s in self.diagnostics if s.name == name]
+
+
+class Graph:
+    """An executor over the test's nodes; destroys them at the end."""
+
+    def __init__(self, context):
+        self.context = context
+        self.executor = SingleThreadedExecutor(context=context)
+        self.nodes = []
+
+    def add(self, node):
+        self.nodes.append(node)
+        self.executor.add_node(node)
+        return node
+
+    def remove(self, node):
+        self.nodes.remove(node)
+        self.executor.remove_node(node)
+        node.destroy_node()
+
+    def spin_until(self, condition, timeout_s: float) -> bool:
+        end = time.monotonic() + timeout_s
+        while time.monotonic() < end:
+            self.executor.spin_once(timeout_sec=0.02)
+            if condition():
+                return True
+        return False
+
+    def spin_for(self, seconds: float) -> None:
+        self.spin_until(lambda: False, seconds)
+
+    def close(self):
+        for node in self.nodes:
+            self.executor.remove_node(node)
+            node.destroy_node()
+        self.executor.shutdown()
+
+
+@pytest.fixture
+def graph(ros_context):
+    g = Graph(ros_context)
+    yield g
+    g.close()
+
+
+def _garment_node(graph, name="garment_sim_node", namespace=None, **overrides) -> GarmentSimNode:
+    parameters = [Parameter(k, value=v) for k, v in overrides.items()]
+    kwargs = {"namespace": namespace} if namespace else {}
+    return graph.add(GarmentSimNode(name, context=graph.context, parameter_overrides=parameters, **kwargs))
+
+
+def _running(node: GarmentSimNode, frames: int = 1):
+    return lambda: node.loop.status == Status.RUNNING and node.stats.total_frames >= frames
+
+
+# ------------------------------------------------------------------------------------ the node
+def test_node_dresses_the_walking_character_and_publishes_its_garments(graph, tmp_path):
+    recording = tmp_path / "node.rrd"
+    node = _garment_node(graph, garments=["pants", "short_skirt"], rerun_sink="save", rerun_path=str(recording))
+    player = SkeletonPublisher(graph.context)
+    graph.add(player.node)
+    probe = Probe(graph.context, "/garment_sim_node/markers")
+    graph.add(probe.node)
+    assert graph.spin_until(_running(node, 40), 20.0), node.loop.detail
+    assert graph.spin_until(lambda: len(probe.markers) >= 30 and probe.statuses_of(node), 5.0)
+
+    character = node.loop.character
+    assert character.garment_names == ["pants", "short_skirt"]
+    received = probe.last_markers()  # CDR bytes -> deserialize_message -> MarkerArray
+    by_ns = {m.ns: m for m in received.markers if m.type == Marker.TRIANGLE_LIST}
+    assert sorted(by_ns) == ["garment/pants", "garment/short_skirt"]
+    pelvis = None
+    for solver in character.solvers:
+        marker = by_ns[f"garment/{solver.model.name}"]
+        assert marker.header.frame_id == "world" and marker.action == Marker.ADD
+        assert len(marker.points) == 3 * len(solver.model.triangles)
+        assert len(marker.colors) == len(marker.points)
+        points = np.array([(p.x, p.y, p.z) for p in marker.points])
+        assert np.all(np.isfinite(points))
+        colors = np.array([(c.r, c.g, c.b, c.a) for c in marker.colors])
+        assert np.all((colors >= 0.0) & (colors <= 1.0)) and np.ptp(colors[:, :3]) > 0.05  # shaded, not flat
+        # The garment is on the character: around its pelvis at the marker's stamp.
+        stamp = marker.header.stamp.sec + 1e-9 * marker.header.stamp.nanosec
+        pelvis = CHARACTER.pose(stamp).frame("pelvis")[0]
+        assert np.linalg.norm(points.mean(axis=0)[:2] - pelvis[:2]) < 0.3
+    spheres = [m for m in received.markers if m.type == Marker.SPHERE]
+    assert len(spheres) == len(character.body.volumes) and {m.ns for m in spheres} == {"garment/volumes"}
+    assert all(min(m.scale.x, m.scale.y, m.scale.z) > 0.02 for m in spheres)
+    # Walking, dressed: no garment point deeper than a few mm in a body volume.
+    assert character.max_penetration() < 0.003
+
+    status = probe.statuses_of(node)[-1]
+    values = {kv.key: kv.value for kv in status.values}
+    for key in ("fps", "substeps", "lag_s", "integration_ms", "correction_ms", "collision_ms", "publish_ms",
+                "max_penetration_mm", "skeleton_age_s", "mass_points"):
+        assert key in values, key
+    assert float(values["max_penetration_mm"]) < 3.0
+    assert float(values["fps"]) > 0.0 and float(values["substeps"]) >= 1.0
+    assert int(values["mass_points"]) == sum(s.model.num_points for s in character.solvers)
+    assert abs(float(values["skeleton_age_s"])) < 0.5
+
+    # The Rerun hook: the recording holds both garments and the stage timings.
+    graph.remove(node)
+    listing = subprocess.run([str(Path(sys.executable).with_name("rerun")), "rrd", "print", "-v", str(recording)],
+                             capture_output=True, text=True, timeout=60).stdout
+    for entity in ("/world/garments/pants", "/world/garments/short_skirt", "/world/body/volumes",
+                   "/timings/collision", "/timings/publish"):
+        assert f" - {entity} " in listing, entity
+
+
+def test_parameter_changes_apply_at_the_next_frame_and_bad_ones_are_refused(graph):
+    node = _garment_node(graph)
+    graph.add(SkeletonPublisher(graph.context).node)
+    client_node = graph.add(rclpy.create_node("parameter_client", context=graph.context))
+    client = AsyncParameterClient(client_node, "/garment_sim_node")
+    assert graph.spin_until(lambda: client.services_are_ready(), 10.0)
+    assert graph.spin_until(_running(node), 20.0), node.loop.detail
+
+    def set_remotely(*parameters):
+        future = client.set_parameters(list(parameters))
+        assert graph.spin_until(future.done, 5.0)
+        return future.result().results
+
+    (good,) = set_remotely(Parameter("air_damping", value=2.5))
+    assert good.successful
+    frames = node.stats.total_frames
+    assert graph.spin_until(lambda: node.stats.total_frames > frames, 2.0)
+    assert all(s.params.air_damping == 2.5 for s in node.loop.character.solvers)
+
+    out_of_range, wrong_type, read_only = set_remotely(
+        Parameter("substep", value=5.0), Parameter("friction", value="high"),
+        Parameter("frame_prefix", value="bob/"))
+    assert not out_of_range.successful
+    assert "substep" in out_of_range.reason and "5.0" in out_of_range.reason and "[1e-05, 0.1]" in out_of_range.reason
+    assert not wrong_type.successful and "friction" in wrong_type.reason and "'high'" in wrong_type.reason
+    assert not read_only.successful and "read-only" in read_only.reason
+    assert node.get_parameter("substep").value == 0.005 and node.solver_params.substep == 0.005
+    assert node.get_parameter("friction").value == 0.2 and node.get_parameter("frame_prefix").value == ""
+
+    # An integer for a real-valued parameter is taken as that number; a bad garment list is refused.
+    (integer, bad_garments) = set_remotely(Parameter("gravity", value=[0, 0, -5]),
+                                           Parameter("garments", value=["pants", "cape"]))
+    assert integer.successful and node.get_parameter("gravity").value == pytest.approx([0.0, 0.0, -5.0])
+    assert not bad_garments.successful and "cape" in bad_garments.reason and "one_piece" in bad_garments.reason
+
+    # Other garments: the character is dressed again with them.
+    (garments,) = set_remotely(Parameter("garments", value=["long_skirt"]))
+    assert garments.successful
+    assert graph.spin_until(lambda: node.loop.character is not None
+                            and node.loop.character.garment_names == ["long_skirt"], 10.0)
+    assert node.loop.character.solvers[0].params.gravity == (0.0, 0.0, -5.0)
+
+
+def test_node_holds_when_the_skeleton_stops_and_resumes_when_it_restarts(graph):
+    node = _garment_node(graph, max_skeleton_age=0.2, diagnostics_period=0.2)
+    player = SkeletonPublisher(graph.context)
+    graph.add(player.node)
+    probe = Probe(graph.context, "/garment_sim_node/markers")
+    graph.add(probe.node)
+    assert graph.spin_until(_running(node, 10), 20.0), node.loop.detail
+
+    player.running = False
+    assert graph.spin_until(lambda: node.loop.status == Status.HOLDING, 2.0)
+    graph.spin_for(0.2)  # let in-flight marker messages arrive
+    held_markers, held_frames = len(probe.markers), node.stats.total_frames
+    held_positions = [p.copy() for p in node.loop.character.world_positions()]
+    graph.spin_for(0.4)
+    assert node.loop.status == Status.HOLDING and "stale" in node.loop.detail
+    assert node.loop.counts["stale"] > 0
+    assert node.stats.total_frames == held_frames and len(probe.markers) == held_markers  # nothing new
+    assert all(np.array_equal(a, b) for a, b in zip(held_positions, node.loop.character.world_positions()))
+    warned = [s for s in probe.statuses_of(node) if s.level == DiagnosticStatus.WARN and "stale" in s.message]
+    assert warned
+
+    player.running = True
+    assert graph.spin_until(lambda: node.loop.status == Status.RUNNING
+                            and node.stats.total_frames > held_frames + 10, 5.0)
+    assert graph.spin_until(lambda: len(probe.markers) > held_markers, 2.0)
+    assert node.frame_errors == 0
+    assert all(np.all(np.isfinite(p)) for p in node.loop.character.world_positions())
+
+
+def test_two_characters_in_one_process_each_wear_their_own_garments(graph):
+    # 20 Hz each: two characters and two players share one executor thread here.
+    alice = _garment_node(graph, namespace="alice", frame_prefix="alice/", rate_hz=20.0)
+    bob = _garment_node(graph, namespace="bob", frame_prefix="bob/", garments=["long_skirt"], rate_hz=20.0)
+    graph.add(SkeletonPublisher(graph.context, "alice/", name="alice_player").node)
+    graph.add(SkeletonPublisher(graph.context, "bob/", offset=(0.0, 4.0, 0.0), name="bob_player").node)
+    assert graph.spin_until(lambda: _running(alice, 5)() and _running(bob, 5)(), 30.0), \
+        (alice.loop.detail, bob.loop.detail)
+
+    for node, prefix, side in ((alice, "alice/", 0.0), (bob, "bob/", 4.0)):
+        assert all(name.startswith(prefix) for name in node.loop.skeleton.names)
+        assert node.input_counts["other_character"] > 0  # the other one's frames were on /tf too
+        for positions in node.loop.character.world_positions():
+            assert abs(positions[:, 1].mean() - side) < 0.5
+    assert alice.loop.character.garment_names == ["pants"]
+    assert bob.loop.character.garment_names == ["long_skirt"]
+    topics = dict(alice.get_topic_names_and_types())
+    assert "/alice/garment_sim_node/markers" in topics and "/bob/garment_sim_node/markers" in topics
+
+
+def test_unmappable_skeleton_and_bad_input_are_reported_without_a_crash(graph):
+    node = _garment_node(graph, diagnostics_period=0.2)
+    probe = Probe(graph.context, "/garment_sim_node/markers")
+    graph.add(probe.node)
+    source = graph.add(rclpy.create_node("bad_source", context=graph.context))
+    publisher = source.create_publisher(TFMessage, "/tf", 10)
+
+    def publish_chain():
+        stamp = source.get_clock().now().to_msg()
+        publisher.publish(TFMessage(transforms=[
+            _transform(stamp, "world", "base", (0, 0, 1), (0, 0, 0, 1)),
+            _transform(stamp, "base", "arm", (0, 0.2, 0), (0, 0, 0, 1)),
+            _transform(stamp, "arm", "hand", (float("nan"), 0, 0), (0, 0, 0, 1)),
+        ]))
+
+    source.create_timer(0.05, publish_chain)
+    assert graph.spin_until(lambda: node.loop.status == Status.UNMAPPABLE, 5.0)
+    assert "missing required role" in node.loop.detail and "pelvis" in node.loop.detail
+    assert graph.spin_until(lambda: any(s.level == DiagnosticStatus.ERROR for s in probe.statuses_of(node)), 2.0)
+    assert graph.spin_until(lambda: int(node.last_diagnostics.get("rejected_non_finite", 0)) > 0, 2.0)
+    assert node.frame_errors == 0 and node.loop.character is None and not probe.markers
+
+
+# ------------------------------------------------------------------------------------ the loop, ROS-free
+def _feed(buffer: PoseBuffer, t: float) -> None:
+    translations, rotations = CHARACTER.local_transforms(t)
+    names, parents = CHARACTER.skeleton.names, CHARACTER.skeleton.parents
+    for i, name in enumerate(names):
+        buffer.add_transform(t, "world" if parents[i] < 0 else names[parents[i]], name, translations[i], rotations[i])
+
+
+def _hold_and_resume(catch_up_wall_s: float):
+    """A loop dressed and stepped at 60 Hz, then 0.5 s without skeleton data; returns it, the
+    frame that resumed, and the time."""
+    buffer = PoseBuffer("world", max_age_s=0.2)
+    loop = CharacterLoop(buffer, DEFAULT_PARAMS, ["pants"], 1.0, catch_up_wall_s=catch_up_wall_s)
+    t = 1.0
+    _feed(buffer, t)
+    assert loop.frame(t) is None and loop.status == Status.WAITING  # the tree is seen once: wait a frame
+    t += 1 / 60
+    _feed(buffer, t)
+    dressed = loop.frame(t)
+    assert dressed.dressed and loop.status == Status.RUNNING and not dressed.reports
+    for _ in range(10):
+        t += 1 / 60
+        _feed(buffer, t)
+        assert loop.frame(t).reports[0].lag_s == 0.0
+    last_data = t
+    for _ in range(30):  # the skeleton stops for 0.5 s: the frames past max_age hold
+        t += 1 / 60
+        loop.frame(t)
+    assert loop.status == Status.HOLDING and loop.counts["stale"] > 0 and loop.last_time < last_data + 0.21
+    t += 1 / 60
+    _feed(buffer, t)
+    resumed = loop.frame(t)
+    assert loop.status == Status.RUNNING and resumed.frame_s > 0.25
+    return loop, resumed, t
+
+
+def test_loop_holds_through_a_gap_then_follows_the_body_across_it_in_full_frames():
+    loop, resumed, t = _hold_and_resume(catch_up_wall_s=math.inf)
+    buffer = loop.buffer
+    # The gap was followed in frames of max_substeps x substep: nothing lags.
+    assert resumed.reports[0].lag_s == 0.0 and resumed.reports[0].substeps == DEFAULT_PARAMS.max_substeps
+    assert loop.character.max_penetration() < 0.003
+    # After an ordinary frame, a frame longer than the solver's budget lags, as the memo's IC_max says.
+    t += 1 / 60
+    _feed(buffer, t)
+    assert loop.frame(t).reports[0].substeps < DEFAULT_PARAMS.max_substeps
+    t += 0.1
+    _feed(buffer, t)
+    slow = loop.frame(t)
+    budget = DEFAULT_PARAMS.max_substeps * DEFAULT_PARAMS.substep
+    assert slow.reports[0].lag_s == pytest.approx(0.1 - budget)
+
+
+def test_loop_without_time_to_catch_up_crosses_the_gap_in_one_frame_and_reports_the_lag():
+    loop, resumed, _ = _hold_and_resume(catch_up_wall_s=0.0)
+    budget = DEFAULT_PARAMS.max_substeps * DEFAULT_PARAMS.substep
+    assert resumed.reports[0].lag_s == pytest.approx(resumed.frame_s - budget)
+    assert all(np.all(np.isfinite(p)) for p in loop.character.world_positions())
+
+
+# ------------------------------------------------------------------------------------ parameters and files
+def test_params_file_watch_applies_a_change_and_refuses_a_broken_file(graph, tmp_path):
+    path = tmp_path / "tuning.yaml"
+    path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: 0.3\n")
+    node = _garment_node(graph, watch_params_file=True, params_file=str(path), watch_period=0.05)
+    assert graph.spin_until(lambda: node.get_parameter("friction").value == 0.3, 3.0)
+
+    path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: 0.45\n    rate_hz: 30\n")
+    assert graph.spin_until(lambda: node.get_parameter("friction").value == 0.45, 3.0)
+    assert node.get_parameter("rate_hz").value == 30.0 and node.frame_timer.timer_period_ns == int(1e9 / 30)
+
+    errors = node.params_file_errors
+    path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: [0.9\n")  # YAML syntax error
+    assert graph.spin_until(lambda: node.params_file_errors > errors, 3.0)
+    assert str(path) in node.params_file_message and "not valid YAML" in node.params_file_message
+    assert node.get_parameter("friction").value == 0.45
+
+    for text, expected in (
+        ("    friction: 0.5\n    frictoin: 0.5\n", "frictoin: unknown parameter"),
+        ("    friction: 0.5\n    substep: 2.0\n", "substep: got 2.0; allowed: [1e-05, 0.1] s"),
+        ("    friction: 0.5\n    fixed_frame: map\n", "fixed_frame: read-only"),
+    ):
+        errors = node.params_file_errors
+        path.write_text("garment_sim_node:\n  ros__parameters:\n" + text)
+        assert graph.spin_until(lambda: node.params_file_errors > errors, 3.0)
+        assert expected in node.params_file_message and str(path) in node.params_file_message
+        assert node.get_parameter("friction").value == 0.45  # the whole file was refused
+
+
+def test_watching_the_start_up_params_file_applies_only_later_edits(graph, tmp_path):
+    path = tmp_path / "start.yaml"
+    path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: 0.3\n    watch_params_file: true\n"
+                    "    watch_period: 0.05\n")
+    arguments = ["--ros-args", "--params-file", str(path), "-p", "friction:=0.5"]
+    node = graph.add(GarmentSimNode(context=graph.context, cli_args=arguments,
+                                    params_file_hint=params_file_from_args(arguments)))
+    assert node.params_file_path() == str(path)
+    graph.spin_for(0.3)
+    assert node.get_parameter("friction").value == 0.5  # -p wins over the file it was started with
+    path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: 0.35\n    watch_params_file: true\n")
+    assert graph.spin_until(lambda: node.get_parameter("friction").value == 0.35, 3.0)
+
+
+def test_config_file_holds_every_parameter_at_its_default_and_loads_at_start(graph):
+    data = yaml.safe_load(CONFIG.read_text())
+    values = data["garment_sim_node"]["ros__parameters"]
+    assert set(values) == {p.name for p in ALL_PARAMETERS}
+    for row in ALL_PARAMETERS:
+        assert check_value(row.name, values[row.name]) == check_value(row.name, row.default), row.name
+
+    node = graph.add(GarmentSimNode(context=graph.context, cli_args=["--ros-args", "--params-file", str(CONFIG),
+                                                                      "-p", "substep:=7.0", "-p", "friction:=0.3"]))
+    assert node.get_parameter("gravity").value == pytest.approx([0.0, 0.0, -9.81])
+    assert node.get_parameter("garments").value == ["pants"]
+    assert node.get_parameter("friction").value == 0.3
+    assert node.get_parameter("substep").value == 0.005  # out of range at start: the default, logged
+    described = node.describe_parameter("substep")
+    assert described.floating_point_range[0].from_value == 1e-05 and described.floating_point_range[0].to_value == 0.1
+    assert "[s]" in described.description
+    assert node.describe_parameter("max_substeps").integer_range[0].to_value == 200
+    assert node.describe_parameter("frame_prefix").read_only
+    assert node.describe_parameter("garments").type == ParameterType.PARAMETER_STRING_ARRAY
+
+
+def test_params_file_sections_match_nodes_like_ros_does():
+    data = {
+        "/**": {"ros__parameters": {"friction": 0.1, "rate_hz": 30.0}},
+        "garment_sim_node": {"ros__parameters": {"friction": 0.2}},
+        "alice": {"garment_sim_node": {"ros__parameters": {"friction": 0.3, "wind": [1.0, 0.0, 0.0]}}},
+        "/*/other_node": {"ros__parameters": {"friction": 0.4}},
+    }
+    assert node_parameters(data, "/garment_sim_node", "f") == {"friction": 0.2, "rate_hz": 30.0}
+    assert node_parameters(data, "/alice/garment_sim_node", "f") == {"friction": 0.3, "rate_hz": 30.0,
+                                                                      "wind": [1.0, 0.0, 0.0]}
+    assert node_parameters(data, "/bob/other_node", "f") == {"friction": 0.4, "rate_hz": 30.0}
+    with pytest.raises(ParamsFileError, match="f: /garment_sim_node/friction: expected a node name"):
+        node_parameters({"garment_sim_node": {"friction": 0.2}}, "/garment_sim_node", "f")
+    assert params_file_from_args(["x", "--ros-args", "--params-file", "a.yaml", "--params-file", "b.yaml"]) == "b.yaml"
+
+
+@pytest.mark.parametrize("node_key", ["garment_sim_node", "/**/garment_sim_node", "/*/garment_sim_node",
+                                      "alice:\n  garment_sim_node"])
+def test_the_watched_file_reaches_the_same_nodes_as_params_file_at_start(ros_context, tmp_path, node_key):
+    path = tmp_path / "p.yaml"
+    indent = "  " * (node_key.count("\n") + 1)
+    path.write_text(f"{node_key}:\n{indent}ros__parameters:\n{indent}  friction: 0.7\n")
+    for namespace in ("/", "/alice"):
+        node = GarmentSimNode(context=ros_context, namespace=namespace,
+                              cli_args=["--ros-args", "--params-file", str(path)])
+        try:
+            from_rcl = node.get_parameter("friction").value
+            from_watch = read_node_parameters(path, node.get_fully_qualified_name()).get("friction", 0.2)
+            assert from_watch == from_rcl, (node_key, namespace)
+        finally:
+            node.destroy_node()
+
+
+def test_every_table_row_checks_its_type_and_range():
+    assert check_value("publish_volumes", False) is False
+    assert check_value("rate_hz", 30) == 30.0 and isinstance(check_value("rate_hz", 30), float)
+    for name, bad, allowed in (("publish_volumes", 1, "true or false"), ("rate_hz", 0.5, "[1.0, 1000.0] Hz"),
+                               ("garments", [], "a non-empty list"), ("garments", ["pants", "pants"], "distinct"),
+                               ("rerun_sink", "disk", "off, save, connect, serve"), ("frame_prefix", 3, "a string")):
+        with pytest.raises(ValueError, match=name) as err:
+            check_value(name, bad)
+        assert allowed in str(err.value)
+    assert {p.name for p in NODE_PARAMETERS}.isdisjoint({p.name for p in PARAMETERS})
+    assert all(p.description for p in ALL_PARAMETERS)
+
+
+# ------------------------------------------------------------------------------------ /tf input
+def test_tf_input_takes_only_the_prefixed_character_and_counts_refusals():
+    buffer = PoseBuffer("world")
+    stamp = seconds_to_stamp(12.25)
+    message = TFMessage(transforms=[
+        _transform(_time(stamp), "world", "/alice/pelvis", (0, 0, 1), (0, 0, 0, 1)),
+        _transform(_time(stamp), "world", "bob/pelvis", (0, 1, 1), (0, 0, 0, 1)),
+        _transform(_time(stamp), "alice/pelvis", "alice/left_hip", (0, math.nan, 0), (0, 0, 0, 1)),
+        _transform(_time(stamp), "alice/pelvis", "alice/right_hip", (0, -0.1, 0), (0, 0, 0, 0)),
+    ])
+    result = ingest(buffer, message, prefix="alice/")
+    assert (result.stored, result.other_character, result.refused) == (1, 1, 2)
+    assert "non-finite" in result.first_refusal
+    assert buffer.frames == ("alice/pelvis", "world")  # leading '/' dropped, as tf2 does
+    assert buffer.rejected == {"non_finite": 1, "zero_quaternion": 1}
+    assert buffer.sample(12.25, ["alice/pelvis"]).pose.positions[0] == pytest.approx([0, 0, 1])
+
+
+def test_stamps_convert_both_ways():
+    assert seconds_to_stamp(1.9999999999) == (2, 0)
+    assert seconds_to_stamp(3.5) == (3, 500_000_000)
+    assert stamp_seconds(_time((7, 250_000_000))) == 7.25
+
+
+def _time(sec_nanosec):
+    from builtin_interfaces.msg import Time
+
+    return Time(sec=sec_nanosec[0], nanosec=sec_nanosec[1])
