@@ -32,3 +32,15 @@ def test_bad_resolution_is_an_error_not_a_traceback():
     assert result.returncode == 2
     assert "resolution" in result.stderr
     assert "Traceback" not in result.stderr
+
+
+def test_demo_json_summary_reads_back_from_a_real_run(tmp_path):
+    rrd = tmp_path / "demo.rrd"
+    result = garment_sim("demo", "--duration", "2", "--garments", "pants", "--rrd", str(rrd), "--json")
+    assert result.returncode == 0, result.stderr[-2000:]
+    summary = json.loads(result.stdout.strip().splitlines()[-1])
+    assert {"garments", "fps", "frames", "max_penetration_m", "rrd"} <= set(summary)
+    assert summary["garments"] == [{"name": "pants", "mass_points": summary["garments"][0]["mass_points"]}]
+    assert summary["frames"] > 10 and summary["fps"] > 1.0
+    assert 0.0 <= summary["max_penetration_m"] < 0.001
+    assert rrd.stat().st_size > 10_000 and summary["rrd"] == str(rrd)
