@@ -10,8 +10,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
-from ..transforms import quat_multiply, quat_rotate
+from ..transforms import quat_rotate
 
 
 @dataclass(frozen=True)
@@ -60,14 +61,34 @@ def forward_kinematics(
     count = len(skeleton.names)
     positions = np.empty((count, 3))
     rotations = np.empty((count, 4))
-    for i, parent in enumerate(skeleton.parents):
-        if parent < 0:
+    _compose_chain(np.asarray(skeleton.parents, dtype=np.int64), np.ascontiguousarray(local_positions, dtype=float),
+                   np.ascontiguousarray(local_rotations, dtype=float), positions, rotations)
+    return SkeletonPose(skeleton, positions, rotations)
+
+
+@njit(cache=True)
+def _compose_chain(parents, local_positions, local_rotations, positions, rotations):
+    """Forward kinematics in topological order (parents before children); quaternions xyzw."""
+    for i in range(parents.shape[0]):
+        p = parents[i]
+        if p < 0:
             positions[i] = local_positions[i]
             rotations[i] = local_rotations[i]
-        else:
-            positions[i] = positions[parent] + quat_rotate(rotations[parent], local_positions[i])
-            rotations[i] = quat_multiply(rotations[parent], local_rotations[i])
-    return SkeletonPose(skeleton, positions, rotations)
+            continue
+        qx, qy, qz, qw = rotations[p, 0], rotations[p, 1], rotations[p, 2], rotations[p, 3]
+        vx, vy, vz = local_positions[i, 0], local_positions[i, 1], local_positions[i, 2]
+        # v + 2 w (u x v) + 2 u x (u x v), u = (qx, qy, qz)
+        tx = 2.0 * (qy * vz - qz * vy)
+        ty = 2.0 * (qz * vx - qx * vz)
+        tz = 2.0 * (qx * vy - qy * vx)
+        positions[i, 0] = positions[p, 0] + vx + qw * tx + (qy * tz - qz * ty)
+        positions[i, 1] = positions[p, 1] + vy + qw * ty + (qz * tx - qx * tz)
+        positions[i, 2] = positions[p, 2] + vz + qw * tz + (qx * ty - qy * tx)
+        bx, by, bz, bw = local_rotations[i, 0], local_rotations[i, 1], local_rotations[i, 2], local_rotations[i, 3]
+        rotations[i, 0] = qw * bx + qx * bw + qy * bz - qz * by
+        rotations[i, 1] = qw * by - qx * bz + qy * bw + qz * bx
+        rotations[i, 2] = qw * bz + qx * by - qy * bx + qz * bw
+        rotations[i, 3] = qw * bw - qx * bx - qy * by - qz * bz
 
 
 def offsets_pose(pose: SkeletonPose) -> SkeletonPose:
