@@ -14,6 +14,7 @@ from __future__ import annotations
 from typing import Sequence
 
 import numpy as np
+from numba import njit
 
 from .ros.marker_cdr import ADD, SPHERE, TRIANGLE_LIST, MarkerData
 from .shading import BODY_RGB
@@ -38,9 +39,30 @@ def garment_marker(mesh: tuple, namespace: str, frame_id: str, stamp: tuple[int,
     """The TRIANGLE_LIST marker of one ``(name, positions, normals, triangles, colors)`` mesh on
     ``<namespace>/<name>``."""
     name, positions, _normals, triangles, colors = mesh
+    triangles = np.ascontiguousarray(triangles, dtype=np.int64).reshape(-1, 3)
+    points = np.empty((3 * len(triangles), 3))
+    corner_colors = np.empty((3 * len(triangles), 4), dtype=np.float32)
+    _expand_corners(np.ascontiguousarray(positions, dtype=float), np.ascontiguousarray(colors, dtype=np.uint8),
+                    triangles, points, corner_colors)
     return MarkerData(ns=f"{namespace}/{name}", id=0, type=TRIANGLE_LIST, action=ADD, frame_id=frame_id,
-                      stamp=stamp, points=triangle_corners(np.asarray(positions, float), triangles),
-                      colors=triangle_corners(rgba(colors), triangles))
+                      stamp=stamp, points=points, colors=corner_colors)
+
+
+@njit(cache=True)
+def _expand_corners(positions, colors, triangles, points, corner_colors):
+    """``triangle_corners`` of the positions and of ``rgba(colors)`` in one pass (the publish hot path)."""
+    k = 0
+    for t in range(triangles.shape[0]):
+        for c in range(3):
+            v = triangles[t, c]
+            points[k, 0] = positions[v, 0]
+            points[k, 1] = positions[v, 1]
+            points[k, 2] = positions[v, 2]
+            corner_colors[k, 0] = colors[v, 0] / np.float32(255.0)
+            corner_colors[k, 1] = colors[v, 1] / np.float32(255.0)
+            corner_colors[k, 2] = colors[v, 2] / np.float32(255.0)
+            corner_colors[k, 3] = 1.0
+            k += 1
 
 
 def volume_markers(volumes: tuple, namespace: str, frame_id: str, stamp: tuple[int, int],
