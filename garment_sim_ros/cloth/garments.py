@@ -20,6 +20,10 @@ from ..body.measurements import STANDARD_BODY, BodyMeasurements
 GARMENT_NAMES = ("short_skirt", "long_skirt", "pants", "one_piece")
 MAX_RESOLUTION = 20.0
 _LEG_GAP = 0.004  # m between a trouser leg's inner side and the body's mid-plane
+# m the trousers' crotch seam hangs below the body's crotch. The body's crotch is the pelvis volume's
+# bottom cut: a seam on it is inside the pelvis as soon as it rises a hair, and the static handling
+# (keep z, out radially) then throws it ~10 cm sideways, across a thigh.
+_CROTCH_EASE = 0.025
 
 
 @dataclass(frozen=True)
@@ -129,7 +133,7 @@ def one_piece(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -
 
 
 def pants(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> GarmentMesh:
-    """Trousers: a hip tube from the waist to the crotch that splits into two leg tubes.
+    """Trousers: a hip tube from the waist to the crotch (plus ``_CROTCH_EASE``) that splits into two leg tubes.
 
     The hip ring's front and back centre vertices, joined by a crotch seam of interior
     vertices, start both legs: each leg's first ring is half of the hip ring plus the seam.
@@ -148,7 +152,7 @@ def pants(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> Ga
         (body.crotch_z, body.hip_rx + ease, body.hip_ry + ease),
     ])
     # Ring phase: index 0 at the front centre (+x), index `half` at the back centre.
-    hip_levels = _profile(body.waist_z, body.crotch_z, n_hip_levels, hip_radii)
+    hip_levels = _profile(body.waist_z, body.crotch_z - _CROTCH_EASE, n_hip_levels, hip_radii)
     vertices = [_ring(cx, cy, z, rx, ry, n_around) for cx, cy, z, rx, ry in hip_levels]
     hip_rings = [np.arange(i * n_around, (i + 1) * n_around) for i in range(n_hip_levels)]
     triangles = [_band(hip_rings[i], hip_rings[i + 1]) for i in range(n_hip_levels - 1)]

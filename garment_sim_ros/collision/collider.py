@@ -105,19 +105,28 @@ class Collider:
                                self._displacement, self._chord)
 
     # ------------------------------------------------------------------ handling
-    def handle_contacts(self, x, v, inv_mass, h: float | None = None) -> None:
-        """Static handling of the cached (in-contact) pairs at the substep-end poses (memo §3 step 4).
+    def handle_contacts(self, x, v, inv_mass, h: float | None = None, x_start=None) -> None:
+        """Handling of the cached (in-contact) pairs at the substep-end poses (memo §3 step 4).
 
+        Static, or -- given the points' substep-start positions ``x_start`` -- the same adaptive
+        static/dynamic handling as ``handle_all`` (without the slide), so that a point the length
+        correction pulled deep into a thin limb goes back out on the side it came from.
         The surface velocity needs the substep length: ``h`` if given, else the one of the last
         ``handle_all`` (substeps of a frame are equal); before any, the surface counts as at rest.
         """
         self._check_points(x, v, inv_mass)
+        if x_start is None:
+            x_start, mode = x, kernels.MODE_STATIC
+        elif not isinstance(x_start, np.ndarray) or x_start.shape != x.shape or x_start.dtype != np.float64:
+            raise ValueError(f"Collider.handle_contacts: x_start must be a float64 array of shape {x.shape}")
+        else:
+            mode = self._mode
         step = self._last_h if h is None else float(h)
         self.static_hits += int(kernels.handle_contacts(
-            self._kinds, self._radii, self._cuts, self._bounding_radii,
+            self._kinds, self._radii, self._cuts, self._bounding_radii, self._switch_radii,
             self.substep_start_positions, self.substep_start_rotations,
             self.substep_end_positions, self.substep_end_rotations,
-            x, v, inv_mass, step, self._eps, self._friction, self.cache))
+            x_start, x, v, inv_mass, step, self._eps, self._friction, self._switch_ratio, mode, self.cache))
 
     def handle_all(self, x_start, x, v, inv_mass, h: float) -> None:
         """Every point against every volume, adaptive static/dynamic (memo §3 step 5, §6.2)."""
@@ -136,6 +145,24 @@ class Collider:
             self.use_broad_phase, self.cache, self._scratch)
         self.static_hits += int(n_static)
         self.dynamic_hits += int(n_dynamic)
+
+    def handle_edges(self, x_start, x, inv_mass, edges, rest_lengths) -> int:
+        """Move cloth edges (E, 2) that cut into a volume deeper than their rest length allows back out,
+        on the side they came from (``x_start``: substep start; see ``kernels.handle_edges``); x in
+        place. Returns the number of edges moved."""
+        for name, array in (("x_start", x_start), ("x", x)):
+            if not isinstance(array, np.ndarray) or array.shape != (self.n_points, 3) or array.dtype != np.float64:
+                raise ValueError(f"Collider.handle_edges: {name} must be a float64 array of shape ({self.n_points}, 3)")
+        edges = np.asarray(edges)
+        rest_lengths = np.asarray(rest_lengths, dtype=np.float64)
+        if (edges.ndim != 2 or edges.shape[1] != 2 or rest_lengths.shape != (len(edges),)
+                or (edges.size and not 0 <= edges.min() <= edges.max() < self.n_points)):
+            raise ValueError(f"Collider.handle_edges: edges must be (E, 2) point indices below {self.n_points} "
+                             "with E rest lengths")
+        return int(kernels.handle_edges(self._kinds, self._radii, self._cuts, self._bounding_radii,
+                                        self.substep_start_positions, self.substep_start_rotations,
+                                        self.substep_end_positions, self.substep_end_rotations,
+                                        edges, rest_lengths, x_start, x, np.asarray(inv_mass, dtype=np.float64)))
 
     def penetration_depths(self, x) -> np.ndarray:
         """(N,) metres inside the deepest volume at the substep-end poses, 0 outside.

@@ -590,11 +590,17 @@ def handle_all_parallel(kinds, radii, cuts, bounding_radii, switch_radii, pos0, 
 
 
 @njit(cache=True)
-def handle_contacts(kinds, radii, cuts, bounding_radii, pos0, rot0, pos1, rot1, x, vel, inv_mass,
-                    h, eps, friction, cache):
-    """Memo §3 step 4: static handling of the cached (point, volume) pairs at the end poses.
-    Returns the number of points moved out."""
-    n_static = 0
+def handle_contacts(kinds, radii, cuts, bounding_radii, switch_radii, pos0, rot0, pos1, rot1, xs, x, vel,
+                    inv_mass, h, eps, friction, switch_ratio, mode, cache):
+    """Memo §3 step 4: the cached (point, volume) pairs at the end poses, during the length correction.
+
+    ``mode`` as in ``handle_pair``, from the substep's start positions ``xs``. physics: the correction
+    can pull a point deep into a thin limb (towards a neighbour on the limb's far side); pushed out
+    radially from there it lands wherever it happens to be relative to the axis, and edges end up
+    straddling the limb. Tested along its relative trajectory, a deep point goes back out where it
+    came in. No slide here (c_time 0): the velocities are recomputed after the correction and the
+    full handling responds them. Returns the number of points moved out."""
+    n_moved = 0
     for i in range(x.shape[0]):
         if inv_mass[i] == 0.0:
             continue
@@ -605,12 +611,116 @@ def handle_contacts(kinds, radii, cuts, bounding_radii, pos0, rot0, pos1, rot1, 
             b = math.sqrt((x[i, 0] - pos1[v, 0]) ** 2 + (x[i, 1] - pos1[v, 1]) ** 2 + (x[i, 2] - pos1[v, 2]) ** 2)
             if b > bounding_radii[v]:
                 continue
-            lx, ly, lz = to_local(pos1, rot1, v, x[i, 0], x[i, 1], x[i, 2])
-            inside, sx, sy, sz, nx, ny, nz = static_projection(kinds[v], radii, cuts, v, lx, ly, lz)
-            if inside:
-                _respond(pos0, rot0, pos1, rot1, v, x, vel, i, sx, sy, sz, nx, ny, nz, eps, friction, h, 0.0)
-                n_static += 1
-    return n_static
+            code = handle_pair(kinds, radii, cuts, switch_radii, pos0, rot0, pos1, rot1, v,
+                               xs, x, vel, i, h, eps, friction, 0.0, switch_ratio, mode)[0]
+            if code != NO_HIT:
+                n_moved += 1
+    return n_moved
+
+
+@njit(cache=True)
+def _deepest_on_segment(kind, radii, cuts, v, ax, ay, az, bx, by, bz):
+    """Where the segment a -> b (local frame) goes deepest into volume v: ``(t, inside)``.
+
+    Ellipsoid and sphere: the point nearest the centre in coordinates scaled by the radii (exact);
+    capsule: the minimum of the signed distance along the segment (convex) by golden-section search.
+    Outside the cut (a join to the neighbouring volume) is not inside.
+    """
+    dx, dy, dz = bx - ax, by - ay, bz - az
+    if kind == CAPSULE:
+        lo, hi = 0.0, 1.0
+        g = 0.5 * (math.sqrt(5.0) - 1.0)
+        for _ in range(_SEARCH_ITERATIONS // 2):
+            m1 = hi - g * (hi - lo)
+            m2 = lo + g * (hi - lo)
+            f1 = capsule_sdf(radii[v, 0], radii[v, 1], radii[v, 2], ax + m1 * dx, ay + m1 * dy, az + m1 * dz)[0]
+            f2 = capsule_sdf(radii[v, 0], radii[v, 1], radii[v, 2], ax + m2 * dx, ay + m2 * dy, az + m2 * dz)[0]
+            if f1 < f2:
+                hi = m2
+            else:
+                lo = m1
+        t = 0.5 * (lo + hi)
+        depth = capsule_sdf(radii[v, 0], radii[v, 1], radii[v, 2], ax + t * dx, ay + t * dy, az + t * dz)[0]
+        return t, depth < 0.0
+    rx, ry, rz = radii[v, 0], radii[v, 1], radii[v, 2]
+    sx, sy, sz = ax / rx, ay / ry, az / rz
+    ex, ey, ez = dx / rx, dy / ry, dz / rz
+    ee = ex * ex + ey * ey + ez * ez
+    t = 0.0 if ee < _TINY * _TINY else min(1.0, max(0.0, -(sx * ex + sy * ey + sz * ez) / ee))
+    qx, qy, qz = sx + t * ex, sy + t * ey, sz + t * ez
+    if qx * qx + qy * qy + qz * qz >= 1.0:
+        return t, False
+    z = az + t * dz
+    return t, kind == SPHERE or cuts[v, 0] <= z <= cuts[v, 1]
+
+
+@njit(cache=True)
+def handle_edges(kinds, radii, cuts, bounding_radii, pos0, rot0, pos, rot, edges, rest_lengths, xs, x, inv_mass):
+    """Cloth edges against the volumes at the end poses (beyond the memo, which handles mass points only).
+
+    physics: a limb pressed into an edge pushes its two mass points apart round its sides; once the
+    edge is stretched past the limb's width the limb slips between them and slices the cloth, both
+    points outside it. An edge of rest length L lying across a limb of local radius r may dip into it
+    by the sagitta ``r - sqrt(r^2 - (L/2)^2)`` (a polygon wrapping a round limb); an edge dipping
+    deeper is being cut: it is moved out along the volume's normal at its deepest point to that dip,
+    translating both free ends (an attached end stays). Ends inside are the point handling's.
+    The side is the one the edge came from when that point of the edge was clear of the volume at the
+    substep's start (``xs``, start poses ``pos0``/``rot0``), as the dynamic point handling does -- a
+    limb moving further than its radius in one substep can pass an edge's middle past its axis;
+    else the nearer one. Returns the number of edges moved.
+    """
+    n_moved = 0
+    for e in range(edges.shape[0]):
+        a = edges[e, 0]
+        b = edges[e, 1]
+        if inv_mass[a] == 0.0 and inv_mass[b] == 0.0:
+            continue
+        half = 0.5 * math.sqrt((x[b, 0] - x[a, 0]) ** 2 + (x[b, 1] - x[a, 1]) ** 2 + (x[b, 2] - x[a, 2]) ** 2)
+        if 2.0 * half <= rest_lengths[e]:
+            continue  # a chord no longer than the rest length between two outside points dips no deeper
+        mx, my, mz = 0.5 * (x[a, 0] + x[b, 0]), 0.5 * (x[a, 1] + x[b, 1]), 0.5 * (x[a, 2] + x[b, 2])
+        for v in range(kinds.shape[0]):
+            reach = bounding_radii[v] + half
+            if (mx - pos[v, 0]) ** 2 + (my - pos[v, 1]) ** 2 + (mz - pos[v, 2]) ** 2 > reach * reach:
+                continue
+            ax, ay, az = to_local(pos, rot, v, x[a, 0], x[a, 1], x[a, 2])
+            bx, by, bz = to_local(pos, rot, v, x[b, 0], x[b, 1], x[b, 2])
+            t, inside = _deepest_on_segment(kinds[v], radii, cuts, v, ax, ay, az, bx, by, bz)
+            if not inside or t <= 0.0 or t >= 1.0:
+                continue
+            px, py, pz = ax + t * (bx - ax), ay + t * (by - ay), az + t * (bz - az)
+            inside, sx, sy, sz, nx, ny, nz = static_projection(kinds[v], radii, cuts, v, px, py, pz)
+            if not inside:
+                continue
+            # the same point of the edge at the substep's start, in the volume's frame (p0', memo §6.2.1)
+            ox, oy, oz = to_local(pos0, rot0, v, xs[a, 0] + t * (xs[b, 0] - xs[a, 0]),
+                                  xs[a, 1] + t * (xs[b, 1] - xs[a, 1]), xs[a, 2] + t * (xs[b, 2] - xs[a, 2]))
+            if (kinds[v] != CAPSULE and ox * nx + oy * ny < 0.0
+                    and not static_projection(kinds[v], radii, cuts, v, ox, oy, oz)[0]):
+                # it was clear of the volume, beyond the axis: out there, where the axis' perpendicular
+                # towards the start point meets the surface (static projection of a point just off it)
+                ux, uy = ox, oy
+                norm = math.sqrt(ux * ux + uy * uy)
+                if norm > _TINY:
+                    lift = 1e-6 * max(radii[v, 0], radii[v, 1])
+                    inside, sx, sy, sz, nx, ny, nz = static_projection(
+                        kinds[v], radii, cuts, v, lift * ux / norm, lift * uy / norm, pz)
+                    if not inside:
+                        continue
+            dip = math.sqrt((sx - px) ** 2 + (sy - py) ** 2 + (sz - pz) ** 2)
+            r = radii[v, 0] if kinds[v] == SPHERE else math.sqrt(sx * sx + sy * sy)
+            half_chord = min(r, 0.5 * rest_lengths[e])
+            excess = dip - (r - math.sqrt(r * r - half_chord * half_chord))
+            if excess <= 0.0:
+                continue
+            wx, wy, wz = rotate(rot, v, excess * nx, excess * ny, excess * nz)
+            for i in (a, b):
+                if inv_mass[i] > 0.0:
+                    x[i, 0] += wx
+                    x[i, 1] += wy
+                    x[i, 2] += wz
+            n_moved += 1
+    return n_moved
 
 
 @njit(cache=True)
