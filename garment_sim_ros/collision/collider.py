@@ -47,6 +47,7 @@ class Collider:
         self.substep_end_rotations = np.tile(np.eye(3), (n_volumes, 1, 1))
         self._displacement = np.zeros(n_volumes)
         self._chord = np.zeros(n_volumes)
+        self._reach = np.zeros(n_volumes)  # per substep: beyond this from a volume no point can touch it
         # per point: volumes recently hit, most recent first (-1 = empty); scratch for the kernel
         self.cache = np.full((self.n_points, int(cache_size)), -1, dtype=np.int64)
         self._scratch = np.zeros((self.n_points, 2 * int(cache_size)), dtype=np.int64)
@@ -136,11 +137,12 @@ class Collider:
         if not h > 0.0:
             raise ValueError(f"Collider.handle_all: the substep length h must be > 0 s, got {h!r}")
         self._last_h = float(h)
+        kernels.reach_radii(self._bounding_radii, self._displacement, self._chord, x_start, x, inv_mass, self._reach)
         n_static, n_dynamic = self._handle_all_kernel(
             self._kinds, self._radii, self._cuts, self._bounding_radii, self._switch_radii,
             self.substep_start_positions, self.substep_start_rotations,
             self.substep_end_positions, self.substep_end_rotations,
-            self._displacement, self._chord, x_start, x, v, inv_mass, float(h),
+            self._displacement, self._chord, self._reach, x_start, x, v, inv_mass, float(h),
             self._eps, self._friction, self._c_time, self._switch_ratio, self._mode,
             self.use_broad_phase, self.cache, self._scratch)
         self.static_hits += int(n_static)
