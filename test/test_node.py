@@ -1,7 +1,7 @@
 """garment_sim_node in-process: rclpy contexts of their own (``ros_context``), no launch.
 
 A small publisher node plays ``ProceduralCharacter(walk())`` on /tf (one TFMessage per tick, frames
-under an optional prefix); the garment node under test runs in the same executor.
+under an optional prefix); the garment node under test runs in the same executor (``node_harness``).
 """
 
 from __future__ import annotations
@@ -9,25 +9,22 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 import rclpy
 import yaml
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from geometry_msgs.msg import TransformStamped
+from diagnostic_msgs.msg import DiagnosticStatus
+from node_harness import (CHARACTER, Probe, SkeletonPublisher, feed, garment_node, graph,  # noqa: F401 (fixture)
+                          ros_time, running, transform)
 from rcl_interfaces.msg import ParameterType
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
-from rclpy.serialization import deserialize_message
 from tf2_msgs.msg import TFMessage
-from visualization_msgs.msg import Marker, MarkerArray
+from visualization_msgs.msg import Marker
 
 from garment_sim_ros.body.pose_buffer import PoseBuffer
-from garment_sim_ros.body.procedural import ProceduralCharacter, walk
 from garment_sim_ros.params import DEFAULT_PARAMS, PARAMETERS
 from garment_sim_ros.ros.character_loop import CharacterLoop, Status
 from garment_sim_ros.ros.node import GarmentSimNode, params_file_from_args
@@ -36,127 +33,17 @@ from garment_sim_ros.ros.settings import ALL_PARAMETERS, NODE_PARAMETERS, check_
 from garment_sim_ros.ros.tf_input import ingest, seconds_to_stamp, stamp_seconds
 
 CONFIG = Path(__file__).resolve().parents[1] / "config" / "garment_sim.yaml"
-CHARACTER = ProceduralCharacter(walk())
-
-
-def _transform(stamp, parent: str, child: str, xyz, xyzw) -> TransformStamped:
-    t = TransformStamped()
-    t.header.stamp = stamp
-    t.header.frame_id, t.child_frame_id = parent, child
-    tr, r = t.transform.translation, t.transform.rotation
-    tr.x, tr.y, tr.z = (float(v) for v in xyz)
-    r.x, r.y, r.z, r.w = (float(v) for v in xyzw)
-    return t
-
-
-class SkeletonPublisher:
-    """Publishes the walking character's joints on /tf at 60 Hz, frames named ``prefix + joint``,
-    the root offset by ``offset`` in the world; ``running`` switches it on and off."""
-
-    def __init__(self, context, prefix: str = "", offset=(0.0, 0.0, 0.0), name: str = "skeleton_player"):
-        self.node = rclpy.create_node(name, context=context)
-        self.prefix, self.offset = prefix, np.asarray(offset, float)
-        self.publisher = self.node.create_publisher(TFMessage, "/tf", 100)
-        self.running = True
-        self.node.create_timer(1.0 / 60.0, self.tick)
-
-    def message(self, stamp, t: float) -> TFMessage:
-        translations, rotations = CHARACTER.local_transforms(t)
-        translations = translations.copy()
-        translations[0] += self.offset
-        names, parents = CHARACTER.skeleton.names, CHARACTER.skeleton.parents
-        return TFMessage(transforms=[
-            _transform(stamp, "world" if parents[i] < 0 else self.prefix + names[parents[i]], self.prefix + name,
-                       translations[i], rotations[i])
-            for i, name in enumerate(names)])
-
-    def tick(self) -> None:
-        if self.running:
-            now = self.node.get_clock().now()
-            self.publisher.publish(self.message(now.to_msg(), now.nanoseconds * 1e-9))
-
-
-class Probe:
-    """Collects the raw marker messages of one node and the /diagnostics statuses."""
-
-    def __init__(self, context, markers_topic: str, name: str = "probe"):
-        self.node = rclpy.create_node(name, context=context)
-        self.markers: list[bytes] = []
-        self.diagnostics: list[DiagnosticStatus] = []
-        self.node.create_subscription(MarkerArray, markers_topic, self.markers.append, 10, raw=True)
-        self.node.create_subscription(DiagnosticArray, "/diagnostics",
-                                      lambda msg: self.diagnostics.extend(msg.status), 10)
-
-    def last_markers(self) -> MarkerArray:
-        return deserialize_message(self.markers[-1], MarkerArray)
-
-    def statuses_of(self, node: GarmentSimNode) -> list[DiagnosticStatus]:
-        name = f"garment_sim: {node.get_fully_qualified_name()}"
-        return [s for s in self.diagnostics if s.name == name]
-
-
-class Graph:
-    """An executor over the test's nodes; destroys them at the end."""
-
-    def __init__(self, context):
-        self.context = context
-        self.executor = SingleThreadedExecutor(context=context)
-        self.nodes = []
-
-    def add(self, node):
-        self.nodes.append(node)
-        self.executor.add_node(node)
-        return node
-
-    def remove(self, node):
-        self.nodes.remove(node)
-        self.executor.remove_node(node)
-        node.destroy_node()
-
-    def spin_until(self, condition, timeout_s: float) -> bool:
-        end = time.monotonic() + timeout_s
-        while time.monotonic() < end:
-            self.executor.spin_once(timeout_sec=0.02)
-            if condition():
-                return True
-        return False
-
-    def spin_for(self, seconds: float) -> None:
-        self.spin_until(lambda: False, seconds)
-
-    def close(self):
-        for node in self.nodes:
-            self.executor.remove_node(node)
-            node.destroy_node()
-        self.executor.shutdown()
-
-
-@pytest.fixture
-def graph(ros_context):
-    g = Graph(ros_context)
-    yield g
-    g.close()
-
-
-def _garment_node(graph, name="garment_sim_node", namespace=None, **overrides) -> GarmentSimNode:
-    parameters = [Parameter(k, value=v) for k, v in overrides.items()]
-    kwargs = {"namespace": namespace} if namespace else {}
-    return graph.add(GarmentSimNode(name, context=graph.context, parameter_overrides=parameters, **kwargs))
-
-
-def _running(node: GarmentSimNode, frames: int = 1):
-    return lambda: node.loop.status == Status.RUNNING and node.stats.total_frames >= frames
 
 
 # ------------------------------------------------------------------------------------ the node
 def test_node_dresses_the_walking_character_and_publishes_its_garments(graph, tmp_path):
     recording = tmp_path / "node.rrd"
-    node = _garment_node(graph, garments=["pants", "short_skirt"], rerun_sink="save", rerun_path=str(recording))
+    node = garment_node(graph, garments=["pants", "short_skirt"], rerun_sink="save", rerun_path=str(recording))
     player = SkeletonPublisher(graph.context)
     graph.add(player.node)
     probe = Probe(graph.context, "/garment_sim_node/markers")
     graph.add(probe.node)
-    assert graph.spin_until(_running(node, 40), 20.0), node.loop.detail
+    assert graph.spin_until(running(node, 40), 20.0), node.loop.detail
     assert graph.spin_until(lambda: len(probe.markers) >= 30 and probe.statuses_of(node), 5.0)
 
     character = node.loop.character
@@ -204,12 +91,12 @@ def test_node_dresses_the_walking_character_and_publishes_its_garments(graph, tm
 
 
 def test_parameter_changes_apply_at_the_next_frame_and_bad_ones_are_refused(graph):
-    node = _garment_node(graph)
+    node = garment_node(graph)
     graph.add(SkeletonPublisher(graph.context).node)
     client_node = graph.add(rclpy.create_node("parameter_client", context=graph.context))
     client = AsyncParameterClient(client_node, "/garment_sim_node")
     assert graph.spin_until(lambda: client.services_are_ready(), 10.0)
-    assert graph.spin_until(_running(node), 20.0), node.loop.detail
+    assert graph.spin_until(running(node), 20.0), node.loop.detail
 
     def set_remotely(*parameters):
         future = client.set_parameters(list(parameters))
@@ -247,12 +134,12 @@ def test_parameter_changes_apply_at_the_next_frame_and_bad_ones_are_refused(grap
 
 
 def test_node_holds_when_the_skeleton_stops_and_resumes_when_it_restarts(graph):
-    node = _garment_node(graph, max_skeleton_age=0.2, diagnostics_period=0.2)
+    node = garment_node(graph, max_skeleton_age=0.2, diagnostics_period=0.2)
     player = SkeletonPublisher(graph.context)
     graph.add(player.node)
     probe = Probe(graph.context, "/garment_sim_node/markers")
     graph.add(probe.node)
-    assert graph.spin_until(_running(node, 10), 20.0), node.loop.detail
+    assert graph.spin_until(running(node, 10), 20.0), node.loop.detail
 
     player.running = False
     assert graph.spin_until(lambda: node.loop.status == Status.HOLDING, 2.0)
@@ -277,11 +164,11 @@ def test_node_holds_when_the_skeleton_stops_and_resumes_when_it_restarts(graph):
 
 def test_two_characters_in_one_process_each_wear_their_own_garments(graph):
     # 20 Hz each: two characters and two players share one executor thread here.
-    alice = _garment_node(graph, namespace="alice", frame_prefix="alice/", rate_hz=20.0)
-    bob = _garment_node(graph, namespace="bob", frame_prefix="bob/", garments=["long_skirt"], rate_hz=20.0)
+    alice = garment_node(graph, namespace="alice", frame_prefix="alice/", rate_hz=20.0)
+    bob = garment_node(graph, namespace="bob", frame_prefix="bob/", garments=["long_skirt"], rate_hz=20.0)
     graph.add(SkeletonPublisher(graph.context, "alice/", name="alice_player").node)
     graph.add(SkeletonPublisher(graph.context, "bob/", offset=(0.0, 4.0, 0.0), name="bob_player").node)
-    assert graph.spin_until(lambda: _running(alice, 5)() and _running(bob, 5)(), 30.0), \
+    assert graph.spin_until(lambda: running(alice, 5)() and running(bob, 5)(), 30.0), \
         (alice.loop.detail, bob.loop.detail)
 
     for node, prefix, side in ((alice, "alice/", 0.0), (bob, "bob/", 4.0)):
@@ -296,7 +183,7 @@ def test_two_characters_in_one_process_each_wear_their_own_garments(graph):
 
 
 def test_unmappable_skeleton_and_bad_input_are_reported_without_a_crash(graph):
-    node = _garment_node(graph, diagnostics_period=0.2)
+    node = garment_node(graph, diagnostics_period=0.2)
     probe = Probe(graph.context, "/garment_sim_node/markers")
     graph.add(probe.node)
     source = graph.add(rclpy.create_node("bad_source", context=graph.context))
@@ -305,9 +192,9 @@ def test_unmappable_skeleton_and_bad_input_are_reported_without_a_crash(graph):
     def publish_chain():
         stamp = source.get_clock().now().to_msg()
         publisher.publish(TFMessage(transforms=[
-            _transform(stamp, "world", "base", (0, 0, 1), (0, 0, 0, 1)),
-            _transform(stamp, "base", "arm", (0, 0.2, 0), (0, 0, 0, 1)),
-            _transform(stamp, "arm", "hand", (float("nan"), 0, 0), (0, 0, 0, 1)),
+            transform(stamp, "world", "base", (0, 0, 1), (0, 0, 0, 1)),
+            transform(stamp, "base", "arm", (0, 0.2, 0), (0, 0, 0, 1)),
+            transform(stamp, "arm", "hand", (float("nan"), 0, 0), (0, 0, 0, 1)),
         ]))
 
     source.create_timer(0.05, publish_chain)
@@ -319,28 +206,21 @@ def test_unmappable_skeleton_and_bad_input_are_reported_without_a_crash(graph):
 
 
 # ------------------------------------------------------------------------------------ the loop, ROS-free
-def _feed(buffer: PoseBuffer, t: float) -> None:
-    translations, rotations = CHARACTER.local_transforms(t)
-    names, parents = CHARACTER.skeleton.names, CHARACTER.skeleton.parents
-    for i, name in enumerate(names):
-        buffer.add_transform(t, "world" if parents[i] < 0 else names[parents[i]], name, translations[i], rotations[i])
-
-
 def _hold_and_resume(catch_up_wall_s: float):
     """A loop dressed and stepped at 60 Hz, then 0.5 s without skeleton data; returns it, the
     frame that resumed, and the time."""
     buffer = PoseBuffer("world", max_age_s=0.2)
     loop = CharacterLoop(buffer, DEFAULT_PARAMS, ["pants"], 1.0, catch_up_wall_s=catch_up_wall_s)
     t = 1.0
-    _feed(buffer, t)
+    feed(buffer, t)
     assert loop.frame(t) is None and loop.status == Status.WAITING  # the tree is seen once: wait a frame
     t += 1 / 60
-    _feed(buffer, t)
+    feed(buffer, t)
     dressed = loop.frame(t)
     assert dressed.dressed and loop.status == Status.RUNNING and not dressed.reports
     for _ in range(10):
         t += 1 / 60
-        _feed(buffer, t)
+        feed(buffer, t)
         assert loop.frame(t).reports[0].lag_s == 0.0
     last_data = t
     for _ in range(30):  # the skeleton stops for 0.5 s: the frames past max_age hold
@@ -348,7 +228,7 @@ def _hold_and_resume(catch_up_wall_s: float):
         loop.frame(t)
     assert loop.status == Status.HOLDING and loop.counts["stale"] > 0 and loop.last_time < last_data + 0.21
     t += 1 / 60
-    _feed(buffer, t)
+    feed(buffer, t)
     resumed = loop.frame(t)
     assert loop.status == Status.RUNNING and resumed.frame_s > 0.25
     return loop, resumed, t
@@ -362,10 +242,10 @@ def test_loop_holds_through_a_gap_then_follows_the_body_across_it_in_full_frames
     assert loop.character.max_penetration() < 0.003
     # After an ordinary frame, a frame longer than the solver's budget lags, as the memo's IC_max says.
     t += 1 / 60
-    _feed(buffer, t)
+    feed(buffer, t)
     assert loop.frame(t).reports[0].substeps < DEFAULT_PARAMS.max_substeps
     t += 0.1
-    _feed(buffer, t)
+    feed(buffer, t)
     slow = loop.frame(t)
     budget = DEFAULT_PARAMS.max_substeps * DEFAULT_PARAMS.substep
     assert slow.reports[0].lag_s == pytest.approx(0.1 - budget)
@@ -382,7 +262,7 @@ def test_loop_without_time_to_catch_up_crosses_the_gap_in_one_frame_and_reports_
 def test_params_file_watch_applies_a_change_and_refuses_a_broken_file(graph, tmp_path):
     path = tmp_path / "tuning.yaml"
     path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: 0.3\n")
-    node = _garment_node(graph, watch_params_file=True, params_file=str(path), watch_period=0.05)
+    node = garment_node(graph, watch_params_file=True, params_file=str(path), watch_period=0.05)
     assert graph.spin_until(lambda: node.get_parameter("friction").value == 0.3, 3.0)
 
     path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: 0.45\n    rate_hz: 30\n")
@@ -493,10 +373,10 @@ def test_tf_input_takes_only_the_prefixed_character_and_counts_refusals():
     buffer = PoseBuffer("world")
     stamp = seconds_to_stamp(12.25)
     message = TFMessage(transforms=[
-        _transform(_time(stamp), "world", "/alice/pelvis", (0, 0, 1), (0, 0, 0, 1)),
-        _transform(_time(stamp), "world", "bob/pelvis", (0, 1, 1), (0, 0, 0, 1)),
-        _transform(_time(stamp), "alice/pelvis", "alice/left_hip", (0, math.nan, 0), (0, 0, 0, 1)),
-        _transform(_time(stamp), "alice/pelvis", "alice/right_hip", (0, -0.1, 0), (0, 0, 0, 0)),
+        transform(ros_time(stamp), "world", "/alice/pelvis", (0, 0, 1), (0, 0, 0, 1)),
+        transform(ros_time(stamp), "world", "bob/pelvis", (0, 1, 1), (0, 0, 0, 1)),
+        transform(ros_time(stamp), "alice/pelvis", "alice/left_hip", (0, math.nan, 0), (0, 0, 0, 1)),
+        transform(ros_time(stamp), "alice/pelvis", "alice/right_hip", (0, -0.1, 0), (0, 0, 0, 0)),
     ])
     result = ingest(buffer, message, prefix="alice/")
     assert (result.stored, result.other_character, result.refused) == (1, 1, 2)
@@ -509,10 +389,4 @@ def test_tf_input_takes_only_the_prefixed_character_and_counts_refusals():
 def test_stamps_convert_both_ways():
     assert seconds_to_stamp(1.9999999999) == (2, 0)
     assert seconds_to_stamp(3.5) == (3, 500_000_000)
-    assert stamp_seconds(_time((7, 250_000_000))) == 7.25
-
-
-def _time(sec_nanosec):
-    from builtin_interfaces.msg import Time
-
-    return Time(sec=sec_nanosec[0], nanosec=sec_nanosec[1])
+    assert stamp_seconds(ros_time((7, 250_000_000))) == 7.25

@@ -11,7 +11,8 @@ the same as ``transforms.py``'s poses).
 - ``sample(T, frames)`` composes each frame's pose in the fixed frame at time ``T``: translations
   interpolate linearly and rotations by slerp between the two bracketing stamps (exact at stamps;
   exact at the midpoint of a constant-velocity translation); past the newest stamp it extrapolates
-  at the last pair's constant velocity for at most ``max_extrapolation_s``, then holds; before the
+  at the constant velocity of the last pair at least 10 ms apart (a /tf flood's stamp jitter stays
+  harmless) for at most ``max_extrapolation_s``, then holds; before the
   oldest it holds the oldest. The fixed frame can sit anywhere in the tree (as in tf2: poses are
   composed to the tree's root and re-expressed in the fixed frame).
 - ``root_motion(T, dt, joint_map)``: the root (pelvis) kinematics the relative simulation needs
@@ -21,7 +22,9 @@ the same as ``transforms.py``'s poses).
   of at most 4 m/s^2 instead of the 115 m/s^2 of a second difference of one noisy pair.
 - Bad input is refused with a message and counted, never raised: ``rejected[reason]`` counts
   refusals (``non_finite``, ``malformed``, ``bad_frame_name``, ``zero_quaternion``,
-  ``non_unit_quaternion``, ``cycle``, ``too_old``, ``too_many_frames``); ``adjusted[what]`` counts
+  ``non_unit_quaternion``, ``cycle``, ``too_old``, ``from_future`` (given the receiver's clock),
+  ``too_many_frames``; and ``degenerate_root``, a
+  ``root_motion`` whose hips coincide horizontally); ``adjusted[what]`` counts
   accepted input that was changed or replaced something (``normalised_quaternion``,
   ``reparented``: a child with a new parent, latest wins and the old history is dropped;
   ``static_dynamic_switch``; ``out_of_order``; ``duplicate_replaced``).
@@ -43,6 +46,7 @@ from .root import root_frame
 from .skeleton import Skeleton, SkeletonPose
 
 _UNIT_SILENT = 1e-3  # |q| within this of 1 is rounding: normalised without being counted
+EXTRAPOLATION_SPAN_S = 0.01  # extrapolation takes its velocity over at least this span (see _Series.bracket)
 
 
 class SampleStatus(Enum):
@@ -52,6 +56,7 @@ class SampleStatus(Enum):
     EXTRAPOLATED = "extrapolated"  # past the newest stamp (bounded) or before the oldest (held)
     STALE = "stale"  # the newest data is older than max_age_s; the pose is the held extrapolation
     MISSING_FRAMES = "missing_frames"  # some frames are unknown or not connected to the fixed frame
+    DEGENERATE = "degenerate"  # root_motion only: the hips coincide horizontally, no heading (counted)
     NO_DATA = "no_data"  # nothing received yet
 
 
@@ -66,8 +71,8 @@ class PoseSample:
 
 @dataclass(frozen=True)
 class RootMotion:
-    """Root kinematics at time ``T`` (fixed frame, SI units). When ``status`` is MISSING_FRAMES or
-    NO_DATA the kinematic fields are None."""
+    """Root kinematics at time ``T`` (fixed frame, SI units). When ``status`` is MISSING_FRAMES,
+    NO_DATA or DEGENERATE the kinematic fields are None."""
 
     status: SampleStatus
     dt: float  # the frame time the increments are for, s
@@ -152,15 +157,25 @@ class _Series:
 
     def bracket(self, times: np.ndarray, max_extrapolation_s: float):
         """The samples around each of ``times`` (K,) and the interpolation weight between them:
-        p0, p1 (K, 3), q0, q1 (K, 4), weight (K,) (0 before the oldest, > 1 when extrapolating)."""
+        p0, p1 (K, 3), q0, q1 (K, 4), weight (K,) (0 before the oldest, > 1 when extrapolating).
+        Past the newest stamp the pair is the newest and the last sample at least
+        ``EXTRAPOLATION_SPAN_S`` before it: at 60 Hz the last pair, at 1 kHz not two stamps whose
+        microseconds of jitter would turn into metres per second."""
         stamps, translations, rotations = self.stamps, self.translations, self.rotations
         if len(stamps) == 1:
             p, q = np.repeat(translations, len(times), axis=0), np.repeat(rotations, len(times), axis=0)
             return p, p, q, q, np.zeros(len(times))
+        newest = len(stamps) - 1
         clamped = np.minimum(times, stamps[-1] + max_extrapolation_s)
-        low = np.minimum(np.maximum(np.searchsorted(stamps, clamped, side="right") - 1, 0), len(stamps) - 2)
-        weight = np.maximum((clamped - stamps[low]) / (stamps[low + 1] - stamps[low]), 0.0)
-        return translations[low], translations[low + 1], rotations[low], rotations[low + 1], weight
+        low = np.minimum(np.maximum(np.searchsorted(stamps, clamped, side="right") - 1, 0), newest - 1)
+        high = low + 1
+        beyond = clamped > stamps[-1]
+        if beyond.any():
+            base = int(np.searchsorted(stamps, stamps[-1] - EXTRAPOLATION_SPAN_S, side="right")) - 1
+            low = np.where(beyond, min(max(base, 0), newest - 1), low)
+            high = np.where(beyond, newest, high)
+        weight = np.maximum((clamped - stamps[low]) / (stamps[high] - stamps[low]), 0.0)
+        return translations[low], translations[high], rotations[low], rotations[high], weight
 
 
 def _as_vector(value, size: int) -> list[float] | None:
@@ -185,12 +200,14 @@ class PoseBuffer:
         quaternion_tolerance: float = 0.1,
         kinematics_window_s: float = 0.1,
         max_frames: int = 1000,
+        max_lead_s: float = 1.0,
     ):
         checks = {
             "max_duration_s": (max_duration_s, 0.0), "max_count": (max_count, 2),
             "max_extrapolation_s": (max_extrapolation_s, 0.0), "max_age_s": (max_age_s, 0.0),
             "quaternion_tolerance": (quaternion_tolerance, _UNIT_SILENT),
             "kinematics_window_s": (kinematics_window_s, 0.0), "max_frames": (max_frames, 1),
+            "max_lead_s": (max_lead_s, 0.0),
         }
         for name, (value, low) in checks.items():
             whole = name in ("max_count", "max_frames")
@@ -208,6 +225,7 @@ class PoseBuffer:
         self.quaternion_tolerance = float(quaternion_tolerance)
         self.kinematics_window_s = float(kinematics_window_s)
         self.max_frames = int(max_frames)
+        self.max_lead_s = float(max_lead_s)
         self.rejected: Counter[str] = Counter()
         self.adjusted: Counter[str] = Counter()
         self._parent: dict[str, str] = {}
@@ -217,8 +235,12 @@ class PoseBuffer:
     # ------------------------------------------------------------------ input
 
     def add_transform(self, stamp_s: float, parent: str, child: str, translation, rotation_xyzw,
-                      static: bool = False) -> str | None:
-        """Store one transform. Returns None when stored, else why it was refused (also counted)."""
+                      static: bool = False, now_s: float | None = None) -> str | None:
+        """Store one transform. Returns None when stored, else why it was refused (also counted).
+
+        ``now_s``, the receiver's clock: a dynamic stamp more than ``max_lead_s`` ahead of it is refused
+        (``from_future``): stored, it would be the frame's newest and every true sample after it would
+        be refused as ``too_old``."""
         if not (isinstance(parent, str) and isinstance(child, str) and parent and child) or parent == child:
             return self._reject("bad_frame_name", parent, child, "frame names must be two different non-empty strings")
         position = _as_vector(translation, 3)
@@ -229,6 +251,10 @@ class PoseBuffer:
         stamp_s = float(stamp_s)
         if not all(math.isfinite(v) for v in (stamp_s, *position, *rotation)):
             return self._reject("non_finite", parent, child, f"non-finite stamp, translation or rotation at {stamp_s}")
+        if now_s is not None and not static and stamp_s > now_s + self.max_lead_s:
+            return self._reject("from_future", parent, child, f"stamp {stamp_s:.3f} is {stamp_s - now_s:.3f} s ahead "
+                                f"of the clock ({now_s:.3f}; max_lead_s {self.max_lead_s}): do the publisher and "
+                                "this node agree on use_sim_time?")
         norm = math.sqrt(sum(v * v for v in rotation))
         if norm < 1e-9:
             return self._reject("zero_quaternion", parent, child, f"zero quaternion at {stamp_s}")
@@ -286,6 +312,23 @@ class PoseBuffer:
         self._static.pop(child, None)
         self._dynamic.pop(child, None)
         self._parent.pop(child, None)
+
+    def forget_frames(self, children) -> None:
+        """Drop these child frames (their transforms and parent links), e.g. a skeleton that was replaced."""
+        for child in children:
+            self._forget(child)
+
+    def forget_dynamic(self) -> int:
+        """Drop every dynamic frame (static ones stay); returns how many. For a clock that jumped back
+        (a looped bag, a sim time reset): the held stamps are in the new clock's future and would
+        refuse the new, older ones as ``too_old``."""
+        dynamic = list(self._dynamic)
+        self.forget_frames(dynamic)
+        return len(dynamic)
+
+    def fresh_frames(self, since_s: float) -> set[str]:
+        """The dynamic frames whose newest stamp is at or after ``since_s``."""
+        return {child for child, series in self._dynamic.items() if series.stamps[-1] >= since_s}
 
     # ------------------------------------------------------------------ the tree
 
@@ -434,6 +477,15 @@ class PoseBuffer:
         now, used = self._sample(stamp_s, list(dict.fromkeys(names)))
         if now.pose is None:
             return RootMotion(now.status, dt, 0, None, None, None, None, None, None, now.detail)
+        try:
+            return self._root_motion(stamp_s, dt, now, used, roles)
+        except ValueError as err:  # body.root.root_frame: the hips coincide horizontally (bad data)
+            self.rejected["degenerate_root"] += 1
+            return RootMotion(SampleStatus.DEGENERATE, dt, 0, None, None, None, None, None, None,
+                              f"at {stamp_s}: {err} ({roles['left_upper_leg']!r}, {roles['right_upper_leg']!r})")
+
+    def _root_motion(self, stamp_s: float, dt: float, now: PoseSample, used: set[str],
+                     roles: Mapping[str, str]) -> RootMotion:
         position, yaw = root_frame(now.pose, roles)
         stamps = np.unique(np.concatenate([self._dynamic[f].stamps for f in used] + [np.empty(0)]))
         # centred on T where the data reaches past it (no lag), else the newest window (lag ~ window / 2)

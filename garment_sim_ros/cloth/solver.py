@@ -81,6 +81,9 @@ class FrameReport:
     static_hits: int = 0
     dynamic_hits: int = 0
     max_stretch: float = 0.0  # largest structural/shear length / rest length after the frame
+    # the step's guard (``GarmentSolver.advance``): "" (a good step), "restored" (the step went
+    # non-finite: the last good state is back) or "refitted" (runaway stretch: the rest shape at the new pose)
+    recovery: str = ""
     extra: dict = field(default_factory=dict)
 
 
@@ -174,6 +177,8 @@ class GarmentSolver:
         self._x_start = np.zeros((n, 3))
         self._forces = np.zeros((n, 3))
         self._correct_count = model.num_correction_springs
+        self._edges = np.ascontiguousarray(model.springs[model.spring_kinds == STRUCTURAL])
+        self._edge_rest = np.ascontiguousarray(model.rest_lengths[model.spring_kinds == STRUCTURAL])
         self.collider = None
         if volumes is not None and len(volumes):
             from ..collision.collider import Collider
@@ -222,6 +227,7 @@ class GarmentSolver:
             raise ValueError(f"advance: frame end {frame.t1} must be after its start {frame.t0}")
         count, h = substep_plan(dt, params)
         report = FrameReport(substeps=count, substep_s=h, simulated_s=count * h)
+        last_good = (state.positions.copy(), state.velocities.copy())  # for the guard at the end
         state.lag += dt - count * h
         report.lag_s = state.lag
 
@@ -273,7 +279,7 @@ class GarmentSolver:
                     report.correction_s += clock() - tic
                 if iteration == 0 and collider is not None:
                     tic = clock()
-                    collider.handle_contacts(x, v, const.inv_mass, h)
+                    collider.handle_contacts(x, v, const.inv_mass, h, self._x_start)
                     report.collision_s += clock() - tic
             tic = clock()
             kernels.velocities_from_positions(x, self._x_start, h, v)
@@ -281,11 +287,44 @@ class GarmentSolver:
             report.integration_s += tac - tic
             if collider is not None:
                 collider.handle_all(self._x_start, x, v, const.inv_mass, h)
+                # Edges a limb cuts into go back out (beyond the memo), then the points that put into a
+                # volume are handled again: the cached contacts, then -- once more, as an edge moved off
+                # one volume can meet its neighbour -- the edges and every point against every volume,
+                # so that the substep still ends with no point inside. No edge moved: nothing to redo.
+                if collider.handle_edges(self._x_start, x, const.inv_mass, self._edges, self._edge_rest):
+                    collider.handle_contacts(x, v, const.inv_mass, h, self._x_start)
+                    collider.handle_edges(self._x_start, x, const.inv_mass, self._edges, self._edge_rest)
+                    collider.handle_all(self._x_start, x, v, const.inv_mass, h)
                 report.collision_s += clock() - tac
         if collider is not None:
             report.static_hits = collider.static_hits
             report.dynamic_hits = collider.dynamic_hits
         report.max_stretch = kernels.max_stretch(x, model.springs, model.rest_lengths, self._correct_count)
+        self._guard(report, last_good, frame)
         state.time = frame.t1
         return report
 
+    # A structural or shear spring this many times its rest length is an explosion, not a soft fabric
+    # (soft springs without length correction reach about 3 under strong root accelerations).
+    RUNAWAY_STRETCH = 10.0
+
+    def _guard(self, report: FrameReport, last_good: tuple[np.ndarray, np.ndarray], frame: FrameInput) -> None:
+        """Never keep a non-finite or runaway garment: non-finite values restore the last good state
+        (at rest); a spring beyond ``RUNAWAY_STRETCH`` times its rest length re-fits the garment (its
+        rest shape moved to where its attached points now are, those on the new pose). ``report.recovery`` names what was done."""
+        x, v = self.state.positions, self.state.velocities
+        if np.isfinite(x).all() and np.isfinite(v).all():
+            if report.max_stretch <= self.RUNAWAY_STRETCH:
+                return
+            attached = self.model.attached
+            targets = self._attachment_targets(frame.root_position1, frame.root_yaw1,
+                                               frame.frame_positions1, frame.frame_rotations1)
+            rest = self.model.rest_positions  # moved with its attached points' mean, then those pinned
+            x[...] = rest + (targets.mean(axis=0) - rest[attached].mean(axis=0) if len(attached) else 0.0)
+            x[attached] = targets
+            report.recovery = "refitted"
+        if not np.isfinite(x).all():  # the step, or the new pose the re-fit used, was not finite
+            x[...] = last_good[0]
+            report.recovery = "restored"
+        v[...] = 0.0
+        report.max_stretch = kernels.max_stretch(x, self.model.springs, self.model.rest_lengths, self._correct_count)

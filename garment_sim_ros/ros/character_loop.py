@@ -21,6 +21,18 @@ module decides what happens:
    not dragged across the gap in a few substeps. Otherwise a frame longer than
    ``max_substeps x substep`` lags (memo §3), which the diagnostics report; so does what a
    catch-up could not cover.
+3. Bad input while running (each counted in ``counts`` under its reason and logged, throttled):
+   the clock jumping back more than ``CLOCK_JUMP_BACK_S`` also forgets the buffer's dynamic
+   transforms (their stamps are in the new clock's future) and dresses again when the skeleton
+   is back (``clock_jumped_back``); a skeleton replaced mid-run (its frames stop while frames not
+   in it arrive under the prefix: another clip with other names) forgets the stopped frames and
+   maps, fits and dresses the new one (``skeleton_changed``); a root jump longer than the
+   ``teleport_distance`` parameter within a frame, faster than ``MAX_ROOT_SPEED`` (a clip looping
+   back, not a body that walked on while the loop lagged) forgets the motion before the jump and
+   dresses the garments again at the new pose instead of dragging them along (``teleported``); a
+   pose whose hips coincide horizontally has no heading and holds (``root_motion_degenerate``); a
+   node clock that has not started (``use_sim_time`` without /clock) waits (``no_clock``, from
+   ``clock_not_started``).
 
 Changing garments or resolution (``set_garments``) re-dresses at the next frame; solver
 parameters (``set_params``) apply from the next step on.
@@ -33,6 +45,8 @@ import time
 from collections import Counter
 from dataclasses import dataclass
 from typing import Sequence
+
+import numpy as np
 
 from ..body.fitting import fit_body
 from ..body.joint_map import auto_joint_map, load_joint_map
@@ -47,6 +61,7 @@ MAX_CATCH_UP_FRAMES = 25  # a frame covers a gap in at most this many full frame
 CATCH_UP_WALL_S = 0.1  # ...and spends at most about this long on them (a busy machine lags instead)
 CLOCK_JUMP_BACK_S = 1.0  # a clock this far behind the last frame restarts (sim time reset, looped bag)
 LOG_PERIOD_S = 5.0  # the same warning at most this often
+MAX_ROOT_SPEED = 12.0  # m/s, faster than any sprinter: a root faster than this within a frame teleported
 _USABLE = (SampleStatus.OK, SampleStatus.EXTRAPOLATED)
 
 
@@ -149,13 +164,18 @@ class CharacterLoop:
             return self._dress_when_ready(time_s)
         if time_s <= self.last_time:
             if self.last_time - time_s > CLOCK_JUMP_BACK_S:
+                dropped = self.buffer.forget_dynamic()  # their stamps are in the new clock's future
                 return self._redress(time_s, "clock_jumped_back", f"the clock jumped back from "
-                                     f"{self.last_time:.3f} s to {time_s:.3f} s; dressing again")
+                                     f"{self.last_time:.3f} s to {time_s:.3f} s; forgot the {dropped} moving "
+                                     "frames' history, dressing again")
             # T_next = D_last + now goes back a little after a slow frame: normal, counted, logged quietly
             return self._skip("time_not_advancing", f"frame time {time_s:.6f} s is not after the last "
                               f"frame's {self.last_time:.6f} s", "info")
         sample = self.buffer.sample(time_s, self.skeleton)
         if sample.status not in _USABLE:
+            replaced = self._replaced_frames(time_s)
+            if replaced:
+                return replaced
             return self._skip(sample.status.value, f"skeleton {sample.status.value} at {time_s:.3f} s: "
                               f"{sample.detail}; holding the last frame")
         if time_s - self.last_time > RESUME_GAP_S and not self._just_dressed:
@@ -177,8 +197,18 @@ class CharacterLoop:
             t = time_s if last else start + frame_s * k / pieces
             pose = sample.pose if last else self.buffer.sample(t, self.skeleton).pose
             motion = self.buffer.root_motion(t, t - self.last_time, self.joint_map)
+            if motion.status == SampleStatus.DEGENERATE and not last:
+                continue  # no heading inside the gap (a pose lying on its side): the next piece spans it
             if pose is None or motion.position is None:
                 return self._skip("root_motion_" + motion.status.value, f"skeleton at {t:.3f} s: {motion.detail}")
+            jump = float(np.linalg.norm(motion.position - self.character.root.position))
+            # a jump in the data, not the way the body walked while the loop lagged (a slow dressing)
+            if jump > self.params.teleport_distance and jump > MAX_ROOT_SPEED * (t - self.last_time):
+                # the history before the jump would put thousands of m/s^2 into the root's kinematics
+                self.buffer.forget_dynamic()
+                return self._redress(time_s, "teleported", f"the root jumped {jump:.2f} m by {t:.3f} s (more than "
+                                     f"teleport_distance {self.params.teleport_distance} m); forgot the motion "
+                                     "before the jump, dressing again at the new pose")
             reports = self.character.step(pose, root_motion_for_dressing(motion), t)
             self.last_time = t
             if last:
@@ -207,6 +237,33 @@ class CharacterLoop:
         self._log("warning", reason, message)
         self.character = None
         return self._dress_when_ready(time_s)
+
+    def _replaced_frames(self, time_s: float) -> FrameResult | None:
+        """Another skeleton under the prefix: ours stopped while frames not in it arrive. Forget ours, dress it."""
+        fresh = self.buffer.fresh_frames(time_s - self.buffer.max_age_s)
+        ours = set(self.skeleton.names)
+        stopped = sorted((ours & self.buffer.fresh_frames(-math.inf)) - fresh)  # our moving frames gone quiet
+        # A skeleton, not a stray frame: new frames under the fixed frame, at least half as many as ours.
+        arriving = sorted(f for f in fresh - ours if f.startswith(self.frame_prefix) and self._under_fixed_frame(f))
+        if not stopped or len(arriving) < len(ours) / 2:
+            return None
+        self.buffer.forget_frames(stopped)
+        self._refused = self._candidate = None
+        return self._redress(time_s, "skeleton_changed", f"the skeleton changed: {len(stopped)} frames stopped "
+                             f"(e.g. {stopped[0]!r}) while {len(arriving)} new ones arrive (e.g. {arriving[0]!r}); "
+                             "mapping, fitting and dressing again")
+
+    def _under_fixed_frame(self, frame: str) -> bool:
+        while frame is not None and frame != self.buffer.fixed_frame:
+            frame = self.buffer.parent(frame)  # the buffer refuses cycles: this ends
+        return frame is not None
+
+    def clock_not_started(self) -> None:
+        """The node's clock reads zero (``use_sim_time`` and no /clock yet): say so (the node's frame
+        timer runs on that clock and does not fire)."""
+        self.counts["no_clock"] += 1
+        self._wait(Status.WAITING if self.character is None else Status.HOLDING,
+                   "use_sim_time is on and no /clock message has arrived yet: waiting for the clock", "warning")
 
     # -------------------------------------------------------------------------- dressing
     def _find_root(self) -> str | None:
@@ -250,6 +307,9 @@ class CharacterLoop:
             self.counts["setup_failed"] += 1
             return self._wait(Status.UNMAPPABLE, f"cannot dress the skeleton under {root!r}: {err}", "error")
         motion = self.buffer.root_motion(time_s, 1.0 / 60.0, joint_map)
+        if motion.status == SampleStatus.DEGENERATE:  # no heading to dress around: wait for a usable pose
+            self.counts["root_motion_degenerate"] += 1
+            return self._wait(Status.WAITING, f"cannot dress the skeleton under {root!r}: {motion.detail}", "warning")
         character.dress(sample.pose, time_s, root_motion_for_dressing(motion) if motion.position is not None else None)
         self.character, self.skeleton, self.joint_map = character, skeleton, joint_map
         self._catching_up = self._just_dressed = True

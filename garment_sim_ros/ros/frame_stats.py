@@ -3,12 +3,14 @@
 The node records every tick (its compute time) and every simulated frame (the garments'
 ``FrameReport``s, publish time, penetration); ``window()`` returns the figures since the last
 call and starts a new window. Stage times are per frame, summed over the garments (Table 1's
-columns: integration, length correction, collision handling, publishing).
+columns: integration, length correction, collision handling, publishing). ``recoveries`` counts the
+solver guard's events (a step restored or re-fitted, ``FrameReport.recovery``) since the start.
 """
 
 from __future__ import annotations
 
 import time
+from collections import Counter
 from typing import Sequence
 
 from ..cloth.solver import FrameReport
@@ -18,6 +20,7 @@ class FrameStats:
     def __init__(self) -> None:
         self.lag_s = 0.0  # the garments' lag behind the skeleton at the last frame (the largest)
         self.total_frames = 0
+        self.recoveries: Counter[str] = Counter()  # solver guard events since start, by FrameReport.recovery
         self._start()
 
     def _start(self) -> None:
@@ -47,6 +50,7 @@ class FrameStats:
         if not reports:  # the dressing frame
             return
         self._stepped += 1
+        self.recoveries.update(r.recovery for r in reports if r.recovery)
         self._substeps += max(r.substeps for r in reports)
         self._stages["integration"] += sum(r.integration_s for r in reports)
         self._stages["correction"] += sum(r.correction_s for r in reports)

@@ -9,8 +9,9 @@ Wires topics, parameters and timers to the ROS-free modules:
   body volumes) on ``~/markers`` as a serialized ``visualization_msgs/MarkerArray`` stamped
   ``T_next`` in ``fixed_frame``, and to Rerun when ``rerun_sink`` is not off.
 - ``/diagnostics`` (``diagnostic_msgs/DiagnosticArray``) every ``diagnostics_period``: fps, substeps,
-  lag, stage times, penetration, skeleton age, counts of refused input (``rejected_*``, ``input_*``)
-  and of skipped frames and re-dresses (``loop_*``); OK running, WARN waiting, holding or lagging,
+  lag, stage times, penetration, skeleton age, counts of refused input (``rejected_*``, ``input_*``),
+  of skipped frames and re-dresses (``loop_*``) and of garment steps the solver's guard restored or
+  re-fitted (``solver_restored``, ``solver_refitted``); OK running, WARN waiting, holding or lagging,
   ERROR for a skeleton that cannot be mapped or a frame that failed since the last status.
 - parameters: every row of ``params.PARAMETERS`` and ``ros.settings.NODE_PARAMETERS``, declared
   with descriptors. A change (parameter services, ``set_parameters``, the watched params file) is
@@ -32,6 +33,7 @@ import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -141,9 +143,11 @@ class GarmentSimNode(Node):
         self.create_subscription(TFMessage, "/tf_static", self._on_tf_static, _TF_STATIC_QOS)
         self.marker_publisher = self.create_publisher(MarkerArray, "~/markers", 2)
         self.diagnostics_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
-        self.frame_timer = self.create_timer(1.0 / v["rate_hz"], self._on_frame_timer)
-        self.diagnostics_timer = self.create_timer(v["diagnostics_period"], self.publish_diagnostics)
-        self.watch_timer = self.create_timer(v["watch_period"], self.poll_params_file)
+        self.frame_timer = self.create_timer(1.0 / v["rate_hz"], self._on_frame_timer)  # the node's clock
+        # Steady: diagnostics and the file watch go on when sim time stalls or has not started.
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.diagnostics_timer = self.create_timer(v["diagnostics_period"], self.publish_diagnostics, clock=steady)
+        self.watch_timer = self.create_timer(v["watch_period"], self.poll_params_file, clock=steady)
         self.rerun = self._create_rerun_logger()
 
     # ------------------------------------------------------------------------------ parameters
@@ -297,7 +301,9 @@ class GarmentSimNode(Node):
 
     # ------------------------------------------------------------------------------ input
     def _on_tf(self, message: TFMessage) -> None:
-        self._count_input(ingest(self.buffer, message, self.values["frame_prefix"], static=False))
+        now_ns = self.get_clock().now().nanoseconds  # 0: use_sim_time before the first /clock
+        self._count_input(ingest(self.buffer, message, self.values["frame_prefix"], static=False,
+                                 now_s=now_ns * 1e-9 if now_ns else None))
 
     def _on_tf_static(self, message: TFMessage) -> None:
         self._count_input(ingest(self.buffer, message, self.values["frame_prefix"], static=True))
@@ -306,6 +312,8 @@ class GarmentSimNode(Node):
         self.input_counts["stored"] += result.stored
         self.input_counts["other_character"] += result.other_character
         self.input_counts["refused"] += result.refused
+        if not (result.stored or result.other_character or result.refused):
+            self.input_counts["empty_messages"] += 1  # nothing to do; counted so a silent publisher shows
         if result.refused:
             self._log("warning", "tf_refused",
                       f"refused /tf input (counted in diagnostics), e.g. {result.first_refusal}")
@@ -342,6 +350,11 @@ class GarmentSimNode(Node):
         self.marker_publisher.publish(serialize_marker_array(markers))
         publish_s = time.perf_counter() - tic
         self.stats.record_frame(result.reports, result.frame_s, result.penetration_m)
+        recovered = [(solver.model.name, report.recovery)
+                     for solver, report in zip(self.loop.character.solvers, result.reports) if report.recovery]
+        if recovered:
+            self._log("warning", "solver_recovery", "a garment step went bad (counted in diagnostics as solver_*): "
+                      + ", ".join(f"{name} {what}" for name, what in recovered))
         self.stats.record_publish(publish_s)
         if self.rerun is not None:
             self._log_rerun(result, payload, publish_s)
@@ -372,6 +385,8 @@ class GarmentSimNode(Node):
     def publish_diagnostics(self) -> None:
         figures = self.stats.window()
         now = self.get_clock().now()
+        if now.nanoseconds == 0 and self.get_clock().ros_time_is_active:
+            self.loop.clock_not_started()  # use_sim_time and no /clock yet: the frame timer does not fire
         loop = self.loop
         lagging = figures["lag_fraction"] > LAG_WARNING_FRACTION
         level, message = DiagnosticStatus.OK, loop.status
@@ -400,6 +415,7 @@ class GarmentSimNode(Node):
         values.update({f"rejected_{key}": str(count) for key, count in sorted(self.buffer.rejected.items())})
         values.update({f"adjusted_{key}": str(count) for key, count in sorted(self.buffer.adjusted.items())})
         values.update({f"loop_{key}": str(count) for key, count in sorted(loop.counts.items())})
+        values.update({f"solver_{key}": str(count) for key, count in sorted(self.stats.recoveries.items())})
         self.last_diagnostics = values
         status = DiagnosticStatus(level=level, name=f"garment_sim: {self.get_fully_qualified_name()}",
                                   message=message,

@@ -3,7 +3,7 @@
 One character per frame prefix: a transform belongs to the character when its child frame starts
 with the prefix (every transform when the prefix is empty); others are another character's and
 are skipped without complaint. Frame names lose a leading '/' (tf2 does the same). What the
-buffer refuses (NaN, zero quaternions, cycles, far too old stamps...) is counted there
+buffer refuses (NaN, zero quaternions, cycles, far too old or future stamps...) is counted there
 (``PoseBuffer.rejected``) and the first reason is kept for a throttled log line.
 """
 
@@ -36,8 +36,9 @@ def frame_name(name: str) -> str:
     return name[1:] if name.startswith("/") else name
 
 
-def ingest(buffer, message, prefix: str = "", static: bool = False) -> IngestResult:
-    """Store the transforms of a ``tf2_msgs/TFMessage`` that belong to the character of ``prefix``."""
+def ingest(buffer, message, prefix: str = "", static: bool = False, now_s: float | None = None) -> IngestResult:
+    """Store the transforms of a ``tf2_msgs/TFMessage`` that belong to the character of ``prefix``;
+    ``now_s``, the receiver's clock (None before it started), refuses stamps far in its future."""
     result = IngestResult()
     for transform in message.transforms:
         child = frame_name(transform.child_frame_id)
@@ -46,7 +47,7 @@ def ingest(buffer, message, prefix: str = "", static: bool = False) -> IngestRes
             continue
         t, r = transform.transform.translation, transform.transform.rotation
         refusal = buffer.add_transform(stamp_seconds(transform.header.stamp), frame_name(transform.header.frame_id),
-                                       child, (t.x, t.y, t.z), (r.x, r.y, r.z, r.w), static=static)
+                                       child, (t.x, t.y, t.z), (r.x, r.y, r.z, r.w), static=static, now_s=now_s)
         if refusal is None:
             result.stored += 1
         else:
