@@ -7,18 +7,19 @@ This is what the node, the command line and the benchmarks drive. Give it skelet
     character.dress(first_pose, t0)             # fit the garments from the rest pose onto the first pose
     reports = character.step(pose, motion, t)    # one frame per call
 
-Root motion (``RootMotion``) is the pelvis position, heading and their rates (memo §4: v0, a0).
-``motion_from_poses`` estimates it from a pose function by central differences, for motion
-sources that can be sampled at any time (BVH clips, the procedural character).
+Root motion (``body.pose_buffer.RootMotion``) is the pelvis position, heading and their rates
+(memo §4: v0, a0); the node gets it from the pose buffer, and ``motion_from_poses`` estimates it
+from a pose function by central differences, for motion sources that can be sampled at any time
+(BVH clips, the procedural character).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Callable, Sequence
 
 import numpy as np
 
+from .body.pose_buffer import RootMotion, SampleStatus
 from .body.root import root_frame
 from .body.skeleton import SkeletonPose
 from .cloth.garments import build_garment
@@ -28,18 +29,6 @@ from .params import SolverParams
 from .transforms import compose, inverse, quat_slerp, yaw_quat
 
 
-@dataclass(frozen=True)
-class RootMotion:
-    """The root frame and its rates at one instant; world frame, SI."""
-
-    position: np.ndarray  # (3,) m
-    yaw: float  # rad
-    velocity: np.ndarray  # (3,) m/s
-    acceleration: np.ndarray  # (3,) m/s^2
-    yaw_rate: float  # rad/s
-    yaw_acceleration: float  # rad/s^2
-
-
 def motion_from_poses(pose_at: Callable[[float], SkeletonPose], joint_map, t: float,
                       window: float = 1.0 / 60.0) -> RootMotion:
     """Root motion at ``t`` by central differences over ``t - window, t, t + window``."""
@@ -47,7 +36,7 @@ def motion_from_poses(pose_at: Callable[[float], SkeletonPose], joint_map, t: fl
     p = np.array([s[0] for s in samples])
     yaw = np.unwrap([s[1] for s in samples])
     return RootMotion(
-        position=p[1], yaw=float(samples[1][1]),
+        status=SampleStatus.OK, dt=window, samples=3, position=p[1], yaw=float(samples[1][1]),
         velocity=(p[2] - p[0]) / (2 * window), acceleration=(p[2] - 2 * p[1] + p[0]) / window**2,
         yaw_rate=float((yaw[2] - yaw[0]) / (2 * window)),
         yaw_acceleration=float((yaw[2] - 2 * yaw[1] + yaw[0]) / window**2),
@@ -98,6 +87,15 @@ class DressedCharacter:
         """Put the garments on: start at the rest pose, then blend every segment (relative to the root)
         from its rest pose to ``pose`` over ``settle_s`` while the root stands still, so the garments
         start fitted and collision-free whatever the first pose is."""
+        self._put_on(self.solvers, pose, time_s, settle_s, frame_s)
+        if motion is None:
+            position, yaw = root_frame(pose, self.joint_map)
+            still = np.zeros(3)
+            motion = RootMotion(SampleStatus.OK, 0.0, 0, np.asarray(position, float), yaw, still, still, 0.0, 0.0)
+        self._previous = (pose, motion, time_s)
+
+    def _put_on(self, solvers: Sequence[GarmentSolver], pose: SkeletonPose, time_s: float,
+                settle_s: float, frame_s: float, hold_frames: int = 60) -> None:
         rest = self.body.rest_pose
         rest_root = root_frame(rest, self.joint_map)
         root_position, root_yaw = root_frame(pose, self.joint_map)
@@ -111,31 +109,26 @@ class DressedCharacter:
             return compose(to_world[0], to_world[1], p, q)
 
         steps = max(1, int(round(settle_s / frame_s)))
-        start = time_s - (steps + 60) * frame_s
-        for solver in self.solvers:
-            fp, fq = blended(0.0)
-            sel = [self.frames.index(f) for f in solver.frames]
+        start = time_s - (steps + hold_frames) * frame_s
+        selections = [[self.frames.index(f) for f in solver.frames] for solver in solvers]
+        fp, fq = blended(0.0)
+        for solver, sel in zip(solvers, selections):
             solver.reset(root_position, root_yaw, fp[sel], fq[sel], start)
         still = np.zeros(3)
-        # Blend, then hold the first pose for a second so the garments come to rest on it.
-        weights = [min(1.0, (k + 1) / steps) for k in range(steps + 60)]
+        # Blend, then hold the pose so the garments come to rest on it.
         t = start
         previous = blended(0.0)
-        for weight in weights:
-            current = blended(weight)
-            for solver in self.solvers:
-                sel = [self.frames.index(f) for f in solver.frames]
+        for k in range(steps + hold_frames):
+            current = blended(min(1.0, (k + 1) / steps))
+            for solver, sel in zip(solvers, selections):
                 solver.advance(FrameInput(t, t + frame_s, root_position, root_yaw, root_position, root_yaw,
                                           still, still, 0.0, 0.0, previous[0][sel], previous[1][sel],
                                           current[0][sel], current[1][sel]))
             previous = current
             t += frame_s
-        for solver in self.solvers:
+        for solver in solvers:
             solver.state.time = time_s
             solver.state.lag = 0.0
-        if motion is None:
-            motion = RootMotion(np.asarray(root_position, float), root_yaw, still, still, 0.0, 0.0)
-        self._previous = (pose, motion, time_s)
 
     def step(self, pose: SkeletonPose, motion: RootMotion, time_s: float) -> list[FrameReport]:
         """Advance every garment from the previous pose to ``pose`` at ``time_s``."""
@@ -152,6 +145,11 @@ class DressedCharacter:
                                start_motion.yaw_rate, start_motion.yaw_acceleration,
                                p0[sel], q0[sel], p1[sel], q1[sel])
             reports.append(solver.advance(frame))
+        # The guard re-fitted a garment that ran away (cloth.solver): its rest shape, moved onto the
+        # new pose, may cross the limbs; put it on again from the rest pose instead, quickly.
+        refitted = [s for s, r in zip(self.solvers, reports) if r.recovery == "refitted"]
+        if refitted:
+            self._put_on(refitted, pose, time_s, settle_s=0.25, frame_s=1.0 / 60.0, hold_frames=15)
         self._previous = (pose, motion, time_s)
         return reports
 

@@ -53,7 +53,7 @@ from ..body.joint_map import auto_joint_map, load_joint_map
 from ..body.pose_buffer import PoseBuffer, SampleStatus
 from ..body.skeleton import Skeleton, SkeletonPose, offsets_pose
 from ..cloth.solver import FrameReport
-from ..dressing import DressedCharacter, RootMotion
+from ..dressing import DressedCharacter
 from ..params import SolverParams
 
 RESUME_GAP_S = 1.0  # a hold longer than this re-dresses (the body moved arbitrarily meanwhile)
@@ -98,12 +98,6 @@ class Throttle:
             return False
         self._last[key] = now
         return True
-
-
-def root_motion_for_dressing(motion) -> RootMotion:
-    """``pose_buffer.RootMotion`` (with a usable status) as ``dressing.RootMotion``."""
-    return RootMotion(motion.position, float(motion.yaw), motion.velocity, motion.acceleration,
-                      float(motion.yaw_rate), float(motion.yaw_acceleration))
 
 
 class CharacterLoop:
@@ -209,7 +203,7 @@ class CharacterLoop:
                 return self._redress(time_s, "teleported", f"the root jumped {jump:.2f} m by {t:.3f} s (more than "
                                      f"teleport_distance {self.params.teleport_distance} m); forgot the motion "
                                      "before the jump, dressing again at the new pose")
-            reports = self.character.step(pose, root_motion_for_dressing(motion), t)
+            reports = self.character.step(pose, motion, t)
             self.last_time = t
             if last:
                 break
@@ -310,7 +304,7 @@ class CharacterLoop:
         if motion.status == SampleStatus.DEGENERATE:  # no heading to dress around: wait for a usable pose
             self.counts["root_motion_degenerate"] += 1
             return self._wait(Status.WAITING, f"cannot dress the skeleton under {root!r}: {motion.detail}", "warning")
-        character.dress(sample.pose, time_s, root_motion_for_dressing(motion) if motion.position is not None else None)
+        character.dress(sample.pose, time_s, motion if motion.position is not None else None)
         self.character, self.skeleton, self.joint_map = character, skeleton, joint_map
         self._catching_up = self._just_dressed = True
         self._log("info", "dressed", f"dressed {', '.join(self.garments)} ({self.mass_points} mass points) on "
