@@ -390,3 +390,23 @@ def test_stamps_convert_both_ways():
     assert seconds_to_stamp(1.9999999999) == (2, 0)
     assert seconds_to_stamp(3.5) == (3, 500_000_000)
     assert stamp_seconds(ros_time((7, 250_000_000))) == 7.25
+
+
+def test_body_file_overrides_the_fitted_volumes_and_a_bad_one_is_reported(tmp_path):
+    good = tmp_path / "body.yaml"
+    good.write_text("volumes:\n  left_upper_leg:\n    radii: [0.1, 0.1, 0.3]\n")
+    bad = tmp_path / "bad_body.yaml"
+    bad.write_text("volumes:\n  left_upper_leg:\n    radii: [-0.1, 0.1, 0.3]\n")
+    for path, dressed in ((good, True), (bad, False)):
+        buffer = PoseBuffer("world")
+        loop = CharacterLoop(buffer, DEFAULT_PARAMS, ["pants"], 1.0, body_file=str(path))
+        for t in (1.0, 1.0 + 1 / 60):
+            feed(buffer, t)
+            loop.frame(t)
+        if dressed:
+            assert loop.status == Status.RUNNING
+            volumes = loop.character.body.volumes
+            assert tuple(volumes.volumes[volumes.names().index("left_upper_leg")].radii) == (0.1, 0.1, 0.3)
+        else:
+            assert loop.status == Status.UNMAPPABLE and loop.character is None
+            assert "bad_body.yaml" in loop.detail and "left_upper_leg" in loop.detail

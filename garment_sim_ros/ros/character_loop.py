@@ -48,7 +48,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ..body.fitting import fit_body
+from ..body.fitting import fit_body, load_body_overrides
 from ..body.joint_map import auto_joint_map, load_joint_map
 from ..body.pose_buffer import PoseBuffer, SampleStatus
 from ..body.skeleton import Skeleton, SkeletonPose, offsets_pose
@@ -105,7 +105,7 @@ class CharacterLoop:
 
     def __init__(self, buffer: PoseBuffer, params: SolverParams, garments: Sequence[str], resolution: float,
                  frame_prefix: str = "", root_frame: str = "", joint_map_file: str = "", logger=None,
-                 catch_up_wall_s: float = CATCH_UP_WALL_S):
+                 catch_up_wall_s: float = CATCH_UP_WALL_S, body_file: str = ""):
         self.buffer = buffer
         self.params = params
         self.garments = list(garments)
@@ -113,6 +113,7 @@ class CharacterLoop:
         self.frame_prefix = frame_prefix
         self.root_frame = root_frame
         self.joint_map_file = joint_map_file
+        self.body_file = body_file
         self.logger = logger
         self.catch_up_wall_s = catch_up_wall_s
         self.throttle = Throttle()
@@ -322,7 +323,8 @@ class CharacterLoop:
         else:
             bare_map = auto_joint_map(bare, rest.positions)
         joint_map = {role: skeleton.names[bare.index(name)] for role, name in bare_map.items()}
-        body = fit_body(rest, joint_map, detailed="one_piece" in self.garments)
+        overrides = load_body_overrides(self.body_file) if self.body_file else None
+        body = fit_body(rest, joint_map, detailed="one_piece" in self.garments, overrides=overrides)
         return DressedCharacter(body, self.garments, self.params, self.resolution), joint_map
 
     def _log(self, level: str, key: str, message: str) -> None:

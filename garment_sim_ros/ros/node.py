@@ -126,7 +126,8 @@ class GarmentSimNode(Node):
                                  max_extrapolation_s=v["max_extrapolation"])
         self.loop = CharacterLoop(self.buffer, self.solver_params, v["garments"], v["resolution"],
                                   frame_prefix=v["frame_prefix"], root_frame=v["root_frame"],
-                                  joint_map_file=v["joint_map_file"], logger=self.get_logger())
+                                  joint_map_file=v["joint_map_file"], body_file=v["body_file"],
+                                  logger=self.get_logger())
         self.stats = FrameStats()
         self.input_counts: Counter[str] = Counter()  # transforms stored / of other characters / refused
         self.frame_errors = 0

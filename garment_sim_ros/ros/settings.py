@@ -66,6 +66,9 @@ NODE_PARAMETERS: tuple[NodeParam, ...] = (
     NodeParam("joint_map_file", "", "", None, None,
               "YAML role -> frame name (names without frame_prefix); empty: recognised from the names",
               read_only=True),
+    NodeParam("body_file", "", "", None, None,
+              "YAML of per-volume overrides of the fitted body (radii, cut, offset_position; see "
+              "config/body.yaml); empty: the body as fitted", read_only=True),
     NodeParam("max_skeleton_age", 0.5, "s", 0.01, 60.0,
               "the skeleton is stale when its newest transform is older than this at the frame time; "
               "stale frames are not simulated (the last good state stays) and are counted"),
