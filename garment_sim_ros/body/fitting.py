@@ -41,11 +41,11 @@ from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
-import yaml
 
 from ..collision.volumes import ELLIPSOID, SPHERE, Volume, VolumeSet
 from ..transforms import quat_conjugate, quat_from_matrix, quat_multiply, quat_rotate, yaw_quat
-from .joint_map import config_file, validate_joint_map
+from ..config_files import config_file, read_yaml
+from .joint_map import validate_joint_map
 from .measurements import BodyMeasurements
 from .root import root_frame
 from .skeleton import SkeletonPose
@@ -147,13 +147,7 @@ def check_overrides(data: Any, source: str) -> BodyOverrides:
 def load_body_overrides(path: str | Path | None = None) -> BodyOverrides:
     """Read ``config/body.yaml`` (or ``path``)."""
     path = Path(path) if path is not None else config_file("body.yaml")
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except OSError as err:
-        raise BodyConfigError(f"{path}: cannot read body config: {err.strerror or err}") from None
-    except yaml.YAMLError as err:
-        raise BodyConfigError(f"{path}: not valid YAML: {err}") from None
-    return check_overrides(data, str(path))
+    return check_overrides(read_yaml(path, BodyConfigError, "body config"), str(path))
 
 
 class _Fit:

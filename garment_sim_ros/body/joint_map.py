@@ -25,13 +25,12 @@ How the automatic mapper decides:
 from __future__ import annotations
 
 import re
-import sys
 from pathlib import Path
 from typing import Mapping
 
 import numpy as np
-import yaml
 
+from ..config_files import config_file, read_yaml
 from .skeleton import Skeleton
 
 ROLES: tuple[str, ...] = (
@@ -51,19 +50,6 @@ BUILTIN_MAPS: tuple[str, ...] = ("cmu_motionbuilder", "cmu_3dsmax")
 
 class JointMapError(ValueError):
     """A joint map is invalid or a skeleton cannot be mapped; the message says what is missing."""
-
-
-def config_file(*parts: str) -> Path:
-    """A file under the package's ``config/``: the source tree's, else the installed share/ copy."""
-    candidates = (
-        Path(__file__).resolve().parents[2] / "config",
-        Path(sys.prefix) / "share" / "garment_sim_ros" / "config",
-    )
-    for directory in candidates:
-        path = directory.joinpath(*parts)
-        if path.exists():
-            return path
-    raise FileNotFoundError(f"config file {'/'.join(parts)} not found in {' or '.join(map(str, candidates))}")
 
 
 def validate_joint_map(joint_map: Mapping[str, str], skeleton: Skeleton | None = None,
@@ -94,13 +80,7 @@ def validate_joint_map(joint_map: Mapping[str, str], skeleton: Skeleton | None =
 
 def load_joint_map(path: str | Path, skeleton: Skeleton | None = None) -> dict[str, str]:
     """Read a joint map from YAML (``role: frame`` lines)."""
-    path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except OSError as err:
-        raise JointMapError(f"{path}: cannot read joint map: {err.strerror or err}") from None
-    except yaml.YAMLError as err:
-        raise JointMapError(f"{path}: not valid YAML: {err}") from None
+    data = read_yaml(path, JointMapError, "joint map")
     return validate_joint_map(data if data is not None else {}, skeleton, source=str(path))
 
 
