@@ -30,7 +30,7 @@ test: $(STAMP)
 	$(PY) -m pytest -q test
 
 bench: $(STAMP)
-	$(VENV)/bin/garment-sim table1 --json
+	for b in table1 scale publish drape; do $(PY) bench/$$b.py || exit 1; done
 
 clean:
 	rm -rf $(VENV) out build *.egg-info
