@@ -154,3 +154,21 @@ def test_runaway_stretch_refits_the_garment_at_the_new_pose():
     np.testing.assert_allclose(solver.state.positions[attached].mean(axis=0)[0],
                                MODEL.rest_positions[attached].mean(axis=0)[0] + 40.0, atol=1e-6)
     assert np.all(np.isfinite(solver.state.positions)) and np.all(solver.state.velocities == 0.0)
+
+
+def test_a_step_that_goes_non_finite_inside_is_restored(monkeypatch):
+    """Finite input, a kernel producing NaN (fault injection): the guard at the end of the step restores."""
+    from garment_sim_ros.cloth import kernels
+
+    solver = settled_solver()
+    good = solver.state.positions.copy()
+    accumulate = kernels.accumulate_forces
+
+    def poisoned(*args):
+        accumulate(*args)
+        args[-1][-1, 0] = math.nan  # the forces on a free point (the hem)
+
+    monkeypatch.setattr(kernels, "accumulate_forces", poisoned)
+    report = solver.advance(frame_after(solver))
+    assert report.recovery == "restored"
+    np.testing.assert_array_equal(solver.state.positions, good)

@@ -230,6 +230,13 @@ class GarmentSolver:
         last_good = (state.positions.copy(), state.velocities.copy())  # for the guard at the end
         state.lag += dt - count * h
         report.lag_s = state.lag
+        if not _finite_frame(frame):  # a bad estimate upstream: no step at all (collision would launder NaN)
+            state.velocities[...] = 0.0
+            state.time = frame.t1
+            report.recovery = "restored"
+            report.max_stretch = kernels.max_stretch(state.positions, model.springs, model.rest_lengths,
+                                                     self._correct_count)
+            return report
 
         jump = float(np.linalg.norm(np.asarray(frame.root_position1) - np.asarray(frame.root_position0)))
         teleported = jump > params.teleport_distance
@@ -265,6 +272,9 @@ class GarmentSolver:
                 x, v, const.mass, model.springs, model.rest_lengths, const.stiffness, const.damping,
                 uniform, yaw_rate + yaw_acc * mid, yaw_acc, params.air_damping, frame_velocity,
                 params.angular_inertia_scale, self._forces)
+            if not math.isfinite(float(np.sum(self._forces))):
+                x[...] = math.nan  # the guard restores; collision handling would turn NaN into garbage
+                break
             kernels.integrate(x, v, self._forces, const.inv_mass, h, self._x_start)
             kernels.set_attached(x, model.attached, targets0 + f1 * (targets1 - targets0))
             tac = clock()
@@ -328,3 +338,7 @@ class GarmentSolver:
             report.recovery = "restored"
         v[...] = 0.0
         report.max_stretch = kernels.max_stretch(x, self.model.springs, self.model.rest_lengths, self._correct_count)
+
+
+def _finite_frame(frame: FrameInput) -> bool:
+    return all(np.all(np.isfinite(np.asarray(value, dtype=float))) for value in vars(frame).values())
