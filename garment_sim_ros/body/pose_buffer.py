@@ -43,7 +43,7 @@ import numpy as np
 
 from ..transforms import IDENTITY_QUAT, compose, inverse, quat_slerp
 from .root import root_frame
-from .skeleton import Skeleton, SkeletonPose
+from .skeleton import Skeleton, SkeletonPose, compose_tree
 
 _UNIT_SILENT = 1e-3  # |q| within this of 1 is rounding: normalised without being counted
 EXTRAPOLATION_SPAN_S = 0.01  # extrapolation takes its velocity over at least this span (see _Series.bracket)
@@ -404,19 +404,18 @@ class PoseBuffer:
             rows = [row[name] for name in used]
             local_p[rows] = p0 + weight[..., None] * (p1 - p0)
             local_q[rows] = quat_slerp(q0, q1, weight)
-        # compose down the tree, one depth at a time; a tree root's pose is the identity
+        # compose down the tree (rows are parents first); a tree root is the identity
         depth = np.zeros(len(names), dtype=int)
-        parent_row = np.full(len(names), -1)
+        parent_row = np.full(len(names), -1, dtype=np.int64)
         for name, i in row.items():
             if name in self._parent:
                 parent_row[i] = row[self._parent[name]]
                 depth[i] = depth[parent_row[i]] + 1
-        world_p, world_q = local_p.copy(), local_q.copy()
-        world_p[depth == 0], world_q[depth == 0] = 0.0, IDENTITY_QUAT
-        for level in range(1, depth.max(initial=0) + 1):
-            at = np.flatnonzero(depth == level)
-            up = parent_row[at]
-            world_p[at], world_q[at] = compose(world_p[up], world_q[up], local_p[at], local_q[at])
+        local_p[depth == 0], local_q[depth == 0] = 0.0, IDENTITY_QUAT  # a tree root is its own origin
+        world_p, world_q = np.empty_like(local_p), np.empty_like(local_q)
+        for k in range(count):  # rows are in topological order: ancestors first
+            compose_tree(parent_row, np.ascontiguousarray(local_p[:, k]), np.ascontiguousarray(local_q[:, k]),
+                         world_p[:, k], world_q[:, k])
         found = [row[frame] for frame in frames if frame not in missing]
         positions, rotations = world_p[found], world_q[found]
         if len(fixed_chain) > 1:

@@ -61,14 +61,15 @@ def forward_kinematics(
     count = len(skeleton.names)
     positions = np.empty((count, 3))
     rotations = np.empty((count, 4))
-    _compose_chain(np.asarray(skeleton.parents, dtype=np.int64), np.ascontiguousarray(local_positions, dtype=float),
+    compose_tree(np.asarray(skeleton.parents, dtype=np.int64), np.ascontiguousarray(local_positions, dtype=float),
                    np.ascontiguousarray(local_rotations, dtype=float), positions, rotations)
     return SkeletonPose(skeleton, positions, rotations)
 
 
 @njit(cache=True)
-def _compose_chain(parents, local_positions, local_rotations, positions, rotations):
-    """Forward kinematics in topological order (parents before children); quaternions xyzw."""
+def compose_tree(parents, local_positions, local_rotations, positions, rotations):
+    """Forward kinematics in topological order (parents before children, -1 for a root, whose pose
+    is its local one); quaternions xyzw; writes ``positions`` (J, 3) and ``rotations`` (J, 4)."""
     for i in range(parents.shape[0]):
         p = parents[i]
         if p < 0:
