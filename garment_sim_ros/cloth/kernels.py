@@ -6,6 +6,8 @@ pelvis and turning with its heading (memo §4, extended to rotation about z).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -162,3 +164,41 @@ def vertex_normals(x, triangles, normals):
             normals[i, 0] /= length
             normals[i, 1] /= length
             normals[i, 2] /= length
+
+
+@njit(cache=True)
+def _rotate(qx, qy, qz, qw, vx, vy, vz):
+    tx = 2.0 * (qy * vz - qz * vy)
+    ty = 2.0 * (qz * vx - qx * vz)
+    tz = 2.0 * (qx * vy - qy * vx)
+    return (vx + qw * tx + (qy * tz - qz * ty), vy + qw * ty + (qz * tx - qx * tz),
+            vz + qw * tz + (qx * ty - qy * tx))
+
+
+@njit(cache=True)
+def poses_in_root_frame(root_position, root_yaw, frame_positions, frame_rotations, index, offset_positions,
+                        offset_rotations, out_positions, out_rotations):
+    """For each k: the pose ``frame[index[k]] * offset[k]`` (world) expressed in the root frame
+    (pelvis position, heading ``root_yaw``); the volumes' poses the collision handling works in.
+    ``offset_rotations`` may be empty: then only positions are written (attached points)."""
+    c, s = math.cos(0.5 * root_yaw), math.sin(0.5 * root_yaw)  # inverse heading: (0, 0, -s, c)
+    for k in range(index.shape[0]):
+        f = index[k]
+        qx, qy, qz, qw = frame_rotations[f, 0], frame_rotations[f, 1], frame_rotations[f, 2], frame_rotations[f, 3]
+        ox, oy, oz = _rotate(qx, qy, qz, qw, offset_positions[k, 0], offset_positions[k, 1], offset_positions[k, 2])
+        wx = frame_positions[f, 0] + ox - root_position[0]
+        wy = frame_positions[f, 1] + oy - root_position[1]
+        wz = frame_positions[f, 2] + oz - root_position[2]
+        out_positions[k, 0], out_positions[k, 1], out_positions[k, 2] = _rotate(0.0, 0.0, -s, c, wx, wy, wz)
+        if offset_rotations.shape[0] == 0:
+            continue
+        bx, by, bz, bw = offset_rotations[k, 0], offset_rotations[k, 1], offset_rotations[k, 2], offset_rotations[k, 3]
+        # world = q * offset, then (0, 0, -s, c) * world
+        rx = qw * bx + qx * bw + qy * bz - qz * by
+        ry = qw * by - qx * bz + qy * bw + qz * bx
+        rz = qw * bz + qx * by - qy * bx + qz * bw
+        rw = qw * bw - qx * bx - qy * by - qz * bz
+        out_rotations[k, 0] = c * rx + s * ry
+        out_rotations[k, 1] = c * ry - s * rx
+        out_rotations[k, 2] = c * rz - s * rw
+        out_rotations[k, 3] = c * rw + s * rz

@@ -30,9 +30,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..params import DEFAULT_PARAMS, SolverParams
-from ..transforms import compose, inverse, quat_rotate, transform_points, yaw_quat
+from ..transforms import transform_points, yaw_quat
 from . import kernels
 from .model import BEND, SHEAR, STRUCTURAL, ClothModel
+
+
+_NO_ROTATIONS = np.zeros((0, 4))
 
 
 @dataclass
@@ -196,19 +199,22 @@ class GarmentSolver:
     # -- poses -------------------------------------------------------------------------------
     def _attachment_targets(self, root_position, root_yaw, frame_positions, frame_rotations) -> np.ndarray:
         """Where the attached points belong, in the simulation frame."""
-        fp = np.asarray(frame_positions, float)[self._attach_frame]
-        fq = np.asarray(frame_rotations, float)[self._attach_frame]
-        world = fp + quat_rotate(fq, self.model.attachment_local)
-        ip, iq = inverse(np.asarray(root_position, float), yaw_quat(root_yaw))
-        return transform_points(ip, iq, world)
+        targets = np.empty((len(self.model.attached), 3))
+        kernels.poses_in_root_frame(np.asarray(root_position, float), float(root_yaw),
+                                    np.ascontiguousarray(frame_positions, dtype=float),
+                                    np.ascontiguousarray(frame_rotations, dtype=float), self._attach_frame,
+                                    self.model.attachment_local, _NO_ROTATIONS, targets, _NO_ROTATIONS)
+        return targets
 
     def _local_volume_poses(self, root_position, root_yaw, frame_positions, frame_rotations):
-        # ``self.frames`` starts with ``volumes.frames``, in their order.
-        count = len(self.volumes.frames)
-        wp, wq = self.volumes.world_poses(np.asarray(frame_positions, float)[:count],
-                                          np.asarray(frame_rotations, float)[:count])
-        ip, iq = inverse(np.asarray(root_position, float), yaw_quat(root_yaw))
-        return compose(ip, iq, wp, wq)
+        """The volumes' poses in the simulation frame (``self.frames`` starts with ``volumes.frames``)."""
+        volumes = self.volumes
+        positions, rotations = np.empty((len(volumes), 3)), np.empty((len(volumes), 4))
+        kernels.poses_in_root_frame(np.asarray(root_position, float), float(root_yaw),
+                                    np.ascontiguousarray(frame_positions, dtype=float),
+                                    np.ascontiguousarray(frame_rotations, dtype=float), volumes.frame_index,
+                                    volumes.offset_positions, volumes.offset_rotations, positions, rotations)
+        return positions, rotations
 
     def reset(self, root_position, root_yaw, frame_positions, frame_rotations, time_s: float = 0.0) -> None:
         """Put the garment at its rest shape around the root, attached points on their segments."""
