@@ -7,6 +7,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 DURATION ?= 20
 BVH ?=
+GARMENTS ?=
 
 .PHONY: venv demo test bench clean
 
@@ -24,7 +25,7 @@ $(STAMP): requirements.txt setup.py package.xml tools/build_tf2_msgs.sh $(wildca
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(VENV)/bin/garment-sim demo --duration $(DURATION) $(if $(BVH),--bvh $(BVH),)
+	$(VENV)/bin/garment-sim demo --duration $(DURATION) $(if $(BVH),--bvh $(BVH),) $(if $(GARMENTS),--garments $(GARMENTS),)
 
 test: $(STAMP)
 	$(PY) -m pytest -q test
