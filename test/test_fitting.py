@@ -19,7 +19,7 @@ from garment_sim_ros.body.procedural import WALKER_JOINT_MAP, ProceduralCharacte
 from garment_sim_ros.body.root import root_frame
 from garment_sim_ros.body.skeleton import SkeletonPose
 from garment_sim_ros.collision.volumes import ELLIPSOID, SPHERE
-from garment_sim_ros.transforms import quat_conjugate, quat_rotate, yaw_quat
+from garment_sim_ros.transforms import quat_conjugate, quat_multiply, quat_rotate, yaw_quat
 
 DATA = Path(__file__).parent / "data"
 CLIP_NAMES = ("cmu_01_01_jumps_turnaround.bvh", "cmu_131_01_walk_mjstyle.bvh")
@@ -289,3 +289,39 @@ def test_skeleton_command_text_and_errors(capsys, tmp_path):
     assert cli.main(["skeleton", str(bad)]) == 2
     err = capsys.readouterr().err
     assert f"{bad}:" in err and "unexpected end of file" in err
+
+
+@pytest.mark.parametrize("height", [1.45, 2.05])
+def test_a_short_and_a_tall_character_both_get_garments_that_fit(height):
+    """Garments are cut from the fitted body: every garment's rest shape clears the body's volumes
+    (no free point inside any; the strapless dress's carried neckline runs under the arms), its waistband or neckline sits close around the trunk, and it scales with
+    the character (waist girth proportional to height)."""
+    from garment_sim_ros.cloth.garments import GARMENT_NAMES, build_garment
+    from garment_sim_ros.collision.collider import Collider
+
+    character = ProceduralCharacter(height=height)
+    body = fit_body(character.rest_pose(), character.joint_map, detailed=True)
+    reference = fit_body(ProceduralCharacter().rest_pose(), character.joint_map, detailed=True)
+    rest = character.rest_pose()
+    root_p, root_yaw = root_frame(rest, character.joint_map)
+    count = len(body.volumes.frames)
+    frame_p = np.array([rest.frame(f)[0] for f in body.volumes.frames])
+    frame_q = np.array([rest.frame(f)[1] for f in body.volumes.frames])
+    world_p, world_q = body.volumes.world_poses(frame_p[:count], frame_q[:count])
+    to_root = quat_conjugate(yaw_quat(root_yaw))
+    local_p = quat_rotate(to_root, world_p - root_p)
+    for name in GARMENT_NAMES:
+        mesh = build_garment(name, body.measurements)
+        collider = Collider(body.volumes, len(mesh.vertices))
+        local_q = quat_multiply(to_root, world_q)
+        collider.begin_frame(local_p, local_q, local_p, local_q)
+        collider.begin_substep(0.0, 1.0)
+        free = np.setdiff1d(np.arange(len(mesh.vertices)), np.concatenate(list(mesh.attachments.values())))
+        depths = collider.penetration_depths(np.ascontiguousarray(mesh.vertices))[free]  # a neckline rides on
+        assert depths.max() < 1e-3, f"{name} at {height} m: {depths.max() * 1e3:.1f} mm inside a volume"
+        top = next(iter(mesh.attachments.values()))
+        girth = np.hypot(*mesh.vertices[top, :2].T).mean()
+        reference_top = next(iter(build_garment(name, reference.measurements).attachments.values()))
+        reference_girth = np.hypot(*build_garment(name, reference.measurements).vertices[reference_top, :2].T).mean()
+        assert girth / reference_girth == pytest.approx(height / 1.75, rel=0.05)
+
