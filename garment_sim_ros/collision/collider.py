@@ -15,13 +15,17 @@ from ..params import DEFAULT_PARAMS, SolverParams
 from . import kernels
 from .volumes import VolumeSet
 
+# ``parallel=None``: handle_all and handle_contacts spread the points over numba's threads from this many
+# points on. Measured (docs/benchmarks.md): 2 threads pay from ~2 000 points (handle_all 0.18 against 0.43 ms
+# per call), lose a little at 720; with one thread the parallel kernels cost what the serial ones do.
+PARALLEL_MIN_POINTS = 1500
 _MODES = {"adaptive": kernels.MODE_ADAPTIVE, "static": kernels.MODE_STATIC, "dynamic": kernels.MODE_DYNAMIC}
 
 
 class Collider:
     """Collision handling of mass points against a VolumeSet, in the simulation frame."""
 
-    def __init__(self, volumes: VolumeSet, n_points: int, cache_size: int = 2, parallel: bool = False):
+    def __init__(self, volumes: VolumeSet, n_points: int, cache_size: int = 2, parallel: bool | None = None):
         if not isinstance(volumes, VolumeSet) or len(volumes) == 0:
             raise ValueError(f"Collider: volumes must be a non-empty VolumeSet, got {volumes!r}")
         if int(n_points) != n_points or n_points < 0:
@@ -52,8 +56,15 @@ class Collider:
         self.cache = np.full((self.n_points, int(cache_size)), -1, dtype=np.int64)
         self._scratch = np.zeros((self.n_points, 2 * int(cache_size)), dtype=np.int64)
         self._depths = np.zeros(self.n_points)
-        self._handle_all_kernel = kernels.handle_all_parallel if parallel else kernels.handle_all
+        self._boxes = np.zeros((n_volumes, 6))  # local frame, see kernels.local_boxes
+        kernels.local_boxes(self._kinds, self._radii, self._cuts, self._boxes)
+        self._unbounded_radii = np.full(n_volumes, np.inf)
+        self._unbounded_boxes = np.repeat([[-np.inf] * 3 + [np.inf] * 3], n_volumes, axis=0)
+        if parallel is None:
+            parallel = self.n_points >= PARALLEL_MIN_POINTS
+        self.parallel = bool(parallel)
         self._last_h = 0.0
+        self._checked_edges = None  # the last edge array handle_edges validated
         self.use_broad_phase = True  # off only to check that it changes nothing
         self.static_hits = 0
         self.dynamic_hits = 0
@@ -123,7 +134,8 @@ class Collider:
         else:
             mode = self._mode
         step = self._last_h if h is None else float(h)
-        self.static_hits += int(kernels.handle_contacts(
+        kernel = kernels.handle_contacts_parallel if self.parallel else kernels.handle_contacts
+        self.static_hits += int(kernel(
             self._kinds, self._radii, self._cuts, self._bounding_radii, self._switch_radii,
             self.substep_start_positions, self.substep_start_rotations,
             self.substep_end_positions, self.substep_end_rotations,
@@ -137,14 +149,19 @@ class Collider:
         if not h > 0.0:
             raise ValueError(f"Collider.handle_all: the substep length h must be > 0 s, got {h!r}")
         self._last_h = float(h)
-        kernels.reach_radii(self._bounding_radii, self._displacement, self._chord, x_start, x, inv_mass, self._reach)
-        n_static, n_dynamic = self._handle_all_kernel(
-            self._kinds, self._radii, self._cuts, self._bounding_radii, self._switch_radii,
+        bounding_radii, boxes = self._bounding_radii, self._boxes
+        if self.use_broad_phase:
+            kernels.reach_radii(bounding_radii, self._displacement, self._chord, x_start, x, inv_mass, self._reach)
+        else:  # infinite bounds: every test of the broad phase passes
+            bounding_radii, boxes = self._unbounded_radii, self._unbounded_boxes
+            self._reach.fill(np.inf)
+        kernel = kernels.handle_all_parallel if self.parallel else kernels.handle_all
+        n_static, n_dynamic = kernel(
+            self._kinds, self._radii, self._cuts, bounding_radii, self._switch_radii,
             self.substep_start_positions, self.substep_start_rotations,
             self.substep_end_positions, self.substep_end_rotations,
-            self._displacement, self._chord, self._reach, x_start, x, v, inv_mass, float(h),
-            self._eps, self._friction, self._c_time, self._switch_ratio, self._mode,
-            self.use_broad_phase, self.cache, self._scratch)
+            self._displacement, self._chord, self._reach, boxes, x_start, x, v, inv_mass, float(h),
+            self._eps, self._friction, self._c_time, self._switch_ratio, self._mode, self.cache, self._scratch)
         self.static_hits += int(n_static)
         self.dynamic_hits += int(n_dynamic)
 
@@ -157,11 +174,15 @@ class Collider:
                 raise ValueError(f"Collider.handle_edges: {name} must be a float64 array of shape ({self.n_points}, 3)")
         edges = np.asarray(edges)
         rest_lengths = np.asarray(rest_lengths, dtype=np.float64)
-        if (edges.ndim != 2 or edges.shape[1] != 2 or rest_lengths.shape != (len(edges),)
-                or (edges.size and not 0 <= edges.min() <= edges.max() < self.n_points)):
-            raise ValueError(f"Collider.handle_edges: edges must be (E, 2) point indices below {self.n_points} "
-                             "with E rest lengths")
-        return int(kernels.handle_edges(self._kinds, self._radii, self._cuts, self._bounding_radii,
+        if edges is not self._checked_edges:  # the solver passes the same array every substep: check it once
+            if (edges.ndim != 2 or edges.shape[1] != 2 or rest_lengths.shape != (len(edges),)
+                    or (edges.size and not 0 <= edges.min() <= edges.max() < self.n_points)):
+                raise ValueError(f"Collider.handle_edges: edges must be (E, 2) point indices below {self.n_points} "
+                                 "with E rest lengths")
+            self._checked_edges = edges
+        elif rest_lengths.shape != (len(edges),):
+            raise ValueError(f"Collider.handle_edges: need {len(edges)} rest lengths, got shape {rest_lengths.shape}")
+        return int(kernels.handle_edges(self._kinds, self._radii, self._cuts, self._bounding_radii, self._boxes,
                                         self.substep_start_positions, self.substep_start_rotations,
                                         self.substep_end_positions, self.substep_end_rotations,
                                         edges, rest_lengths, x_start, x, np.asarray(inv_mass, dtype=np.float64)))

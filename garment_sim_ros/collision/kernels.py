@@ -19,6 +19,11 @@ Beyond the memo: body volumes overlap at the joints, so a point pushed out of on
 in its neighbour; a point that was hit gets a few extra static passes (``_SETTLE_PASSES``).
 The per-point cache (temporal coherence) lists the volumes hit in the last ``handle_all``
 first, then older entries the point is still near; the broad phase evicts the far ones.
+
+Broad phase of ``handle_all``, from cheap to exact, each test only rejecting pairs the exact one would
+miss: the volume's reach (``reach_radii``, one squared distance), then its local box (``local_boxes``)
+against the point's relative trajectory p0' -> p1 in the volume's frame; cached pairs use the bounding
+sphere of the trajectory (``broad_phase_rejects``) instead, as it decides which cache entries stay.
 """
 
 from __future__ import annotations
@@ -43,40 +48,44 @@ _TRACE_ITERATIONS = 48
 _SEARCH_ITERATIONS = 60
 _SETTLE_PASSES = 4  # extra static passes for a point hit by a volume (overlapping volumes)
 
+# The kernels work in place on their arguments and allocate nothing, so they are compiled without numba's
+# runtime (``_nrt=False``, as numba's own allocation-free helpers are): a call from one kernel to another then
+# no longer increments and decrements an atomic reference count per array argument, which was most of
+# handle_all's time (docs/benchmarks.md). A kernel that allocated would fail to compile, not misbehave.
+kernel = njit(cache=True, _nrt=False)
+
 
 # ----------------------------------------------------------------------------- frames
 
-@njit(cache=True)
+@kernel
 def to_local(pos, rot, v, px, py, pz):
     """Simulation-frame point -> local coordinates of volume ``v`` (R^T (p - pos))."""
     dx = px - pos[v, 0]
     dy = py - pos[v, 1]
     dz = pz - pos[v, 2]
-    r = rot[v]
-    return (r[0, 0] * dx + r[1, 0] * dy + r[2, 0] * dz,
-            r[0, 1] * dx + r[1, 1] * dy + r[2, 1] * dz,
-            r[0, 2] * dx + r[1, 2] * dy + r[2, 2] * dz)
+    # rot[v, r, c], not a view rot[v]: no array is made per call in the hot loops
+    return (rot[v, 0, 0] * dx + rot[v, 1, 0] * dy + rot[v, 2, 0] * dz,
+            rot[v, 0, 1] * dx + rot[v, 1, 1] * dy + rot[v, 2, 1] * dz,
+            rot[v, 0, 2] * dx + rot[v, 1, 2] * dy + rot[v, 2, 2] * dz)
 
 
-@njit(cache=True)
+@kernel
 def to_world(pos, rot, v, lx, ly, lz):
-    r = rot[v]
-    return (pos[v, 0] + r[0, 0] * lx + r[0, 1] * ly + r[0, 2] * lz,
-            pos[v, 1] + r[1, 0] * lx + r[1, 1] * ly + r[1, 2] * lz,
-            pos[v, 2] + r[2, 0] * lx + r[2, 1] * ly + r[2, 2] * lz)
+    return (pos[v, 0] + rot[v, 0, 0] * lx + rot[v, 0, 1] * ly + rot[v, 0, 2] * lz,
+            pos[v, 1] + rot[v, 1, 0] * lx + rot[v, 1, 1] * ly + rot[v, 1, 2] * lz,
+            pos[v, 2] + rot[v, 2, 0] * lx + rot[v, 2, 1] * ly + rot[v, 2, 2] * lz)
 
 
-@njit(cache=True)
+@kernel
 def rotate(rot, v, lx, ly, lz):
-    r = rot[v]
-    return (r[0, 0] * lx + r[0, 1] * ly + r[0, 2] * lz,
-            r[1, 0] * lx + r[1, 1] * ly + r[1, 2] * lz,
-            r[2, 0] * lx + r[2, 1] * ly + r[2, 2] * lz)
+    return (rot[v, 0, 0] * lx + rot[v, 0, 1] * ly + rot[v, 0, 2] * lz,
+            rot[v, 1, 0] * lx + rot[v, 1, 1] * ly + rot[v, 1, 2] * lz,
+            rot[v, 2, 0] * lx + rot[v, 2, 1] * ly + rot[v, 2, 2] * lz)
 
 
 # ----------------------------------------------------------------------------- geometry
 
-@njit(cache=True)
+@kernel
 def capsule_sdf(r_bottom, r_top, half_length, x, y, z):
     """Exact signed distance and unit outward normal of a tapered capsule (round cone).
 
@@ -105,7 +114,7 @@ def capsule_sdf(r_bottom, r_top, half_length, x, y, z):
     return a * rho + b * w - r_bottom, a * ux, a * uy, b
 
 
-@njit(cache=True)
+@kernel
 def _sphere_sdf(radius, x, y, z):
     d = math.sqrt(x * x + y * y + z * z)
     if d > _TINY:
@@ -113,7 +122,7 @@ def _sphere_sdf(radius, x, y, z):
     return -radius, 0.0, 0.0, 1.0
 
 
-@njit(cache=True)
+@kernel
 def _unit_gradient(ax, ay, az, x, y, z):
     """Unit outward normal of the quadric (x/ax)^2 + (y/ay)^2 + (z/az)^2 = 1 at (x, y, z)."""
     gx = x / (ax * ax)
@@ -125,7 +134,7 @@ def _unit_gradient(ax, ay, az, x, y, z):
     return 0.0, 0.0, 1.0
 
 
-@njit(cache=True)
+@kernel
 def static_projection(kind, radii, cuts, v, x, y, z):
     """Static handling geometry (memo Eq. 6-1, 6-3, 6-4) in the local frame.
 
@@ -163,7 +172,7 @@ def static_projection(kind, radii, cuts, v, x, y, z):
     return True, x - d * nx, y - d * ny, z - d * nz, nx, ny, nz
 
 
-@njit(cache=True)
+@kernel
 def penetration_depth(kind, radii, cuts, v, x, y, z):
     """Depth (m) of a local point inside the volume, 0 outside.
 
@@ -195,7 +204,7 @@ def penetration_depth(kind, radii, cuts, v, x, y, z):
     return max(0.0, -d)
 
 
-@njit(cache=True)
+@kernel
 def _ray_exit(ax, ay, az, x, y, z, dx, dy, dz):
     """Positive parameter where the ray (x, y, z) + t d leaves the quadric, from inside; -1 if none."""
     qa = (dx / ax) ** 2 + (dy / ay) ** 2 + (dz / az) ** 2
@@ -209,7 +218,7 @@ def _ray_exit(ax, ay, az, x, y, z, dx, dy, dz):
 
 # ----------------------------------------------------------------------------- dynamic detection
 
-@njit(cache=True)
+@kernel
 def quadric_entry(kind, radii, cuts, v, x0, y0, z0, x1, y1, z1):
     """Memo Eq. 6-5, 6-6: first alpha in [0, 1] where l(alpha) = p0' + alpha (p1 - p0') enters
     the sphere/ellipsoid through its curved surface within the cut; -1 if it does not.
@@ -240,7 +249,7 @@ def quadric_entry(kind, radii, cuts, v, x0, y0, z0, x1, y1, z1):
     return alpha
 
 
-@njit(cache=True)
+@kernel
 def capsule_entry(radii, v, x0, y0, z0, x1, y1, z1):
     """First alpha in [0, 1] where the segment enters the tapered capsule; -1 if it does not.
 
@@ -289,7 +298,7 @@ def capsule_entry(radii, v, x0, y0, z0, x1, y1, z1):
     return hi / length
 
 
-@njit(cache=True)
+@kernel
 def surface_at(kind, radii, v, x, y, z):
     """Closest-surface point and unit normal for a point on (or within tolerance of) the surface."""
     if kind == CAPSULE:
@@ -301,7 +310,7 @@ def surface_at(kind, radii, v, x, y, z):
 
 # ----------------------------------------------------------------------------- response
 
-@njit(cache=True)
+@kernel
 def respond_velocity(vx, vy, vz, sx, sy, sz, nx, ny, nz, friction):
     """Memo Eq. 6-2 / 6-8 relative to the surface velocity s, normal n (unit, outward).
 
@@ -323,7 +332,7 @@ def respond_velocity(vx, vy, vz, sx, sy, sz, nx, ny, nz, friction):
     return c * tx, c * ty, c * tz
 
 
-@njit(cache=True)
+@kernel
 def surface_velocity(pos0, rot0, pos1, rot1, v, lx, ly, lz, h):
     """Velocity of the volume's material point with local coordinates l over the substep."""
     if h <= 0.0:
@@ -333,7 +342,7 @@ def surface_velocity(pos0, rot0, pos1, rot1, v, lx, ly, lz, h):
     return (bx - ax) / h, (by - ay) / h, (bz - az) / h
 
 
-@njit(cache=True)
+@kernel
 def handle_pair(kinds, radii, cuts, switch_radii, pos0, rot0, pos1, rot1, v,
                 xs, x, vel, i, h, eps, friction, c_time, switch_ratio, mode):
     """Handle point ``i`` against volume ``v``; ``x``, ``vel`` updated in place.
@@ -370,7 +379,7 @@ def handle_pair(kinds, radii, cuts, switch_radii, pos0, rot0, pos1, rot1, v,
     return STATIC_HIT, 1.0, sx, sy, sz
 
 
-@njit(cache=True)
+@kernel
 def _respond(pos0, rot0, pos1, rot1, v, x, vel, i, sx, sy, sz, nx, ny, nz, eps, friction, h, slide_time):
     """Put point i at the local surface point s + eps n (end pose), respond its velocity, and
     slide it for ``slide_time`` with the new velocity relative to the surface (Eq. 6-8).
@@ -394,7 +403,7 @@ def _respond(pos0, rot0, pos1, rot1, v, x, vel, i, sx, sy, sz, nx, ny, nz, eps, 
 
 # ----------------------------------------------------------------------------- broad phase
 
-@njit(cache=True)
+@kernel
 def broad_phase_rejects(bounding_radii, pos0, pos1, displacement, chord, v, xs, x, i):
     """True when point i's simplified relative trajectory cannot reach volume v.
 
@@ -411,13 +420,52 @@ def broad_phase_rejects(bounding_radii, pos0, pos1, displacement, chord, v, xs, 
     return 0.5 * (a + b - bound) > bounding_radii[v] * (1.0 + 1e-9) + 1e-12
 
 
-@njit(cache=True)
+@kernel
+def _out_of_reach(reach, pos1, v, x, i):
+    """Beyond ``reach_radii``: point i's substep cannot touch volume v."""
+    return (x[i, 0] - pos1[v, 0]) ** 2 + (x[i, 1] - pos1[v, 1]) ** 2 + (x[i, 2] - pos1[v, 2]) ** 2 > reach[v] * reach[v]
+
+
+@kernel
 def _outside_bounding_sphere(bounding_radii, pos, v, x, i):
     d2 = (x[i, 0] - pos[v, 0]) ** 2 + (x[i, 1] - pos[v, 1]) ** 2 + (x[i, 2] - pos[v, 2]) ** 2
     return d2 > bounding_radii[v] * bounding_radii[v]
 
 
-@njit(cache=True)
+# Local boxes are this much larger than the volume: capsule entry stops _TRACE_TOLERANCE short of the
+# surface, and a dynamic entry point is computed on the segment up to rounding.
+_BOX_MARGIN = 1e-6
+
+
+@kernel
+def local_boxes(kinds, radii, cuts, boxes):
+    """Per volume, ``(lo_x, lo_y, lo_z, hi_x, hi_y, hi_z)`` in its local frame: a box holding every point
+    that can count as inside it or as a dynamic entry point (ellipsoids: within the cut only)."""
+    for v in range(kinds.shape[0]):
+        if kinds[v] == CAPSULE:
+            r = max(radii[v, 0], radii[v, 1])
+            hx, hy, lo_z, hi_z = r, r, -radii[v, 2] - r, radii[v, 2] + r
+        elif kinds[v] == ELLIPSOID:
+            hx, hy = radii[v, 0], radii[v, 1]
+            lo_z, hi_z = max(-radii[v, 2], cuts[v, 0]), min(radii[v, 2], cuts[v, 1])
+        else:  # sphere: radii[v, 0] for the static test, all three for the quadric entry
+            r = max(radii[v, 0], max(radii[v, 1], radii[v, 2]))
+            hx, hy, lo_z, hi_z = r, r, -r, r
+        margin = _BOX_MARGIN + 1e-9 * max(hx, max(hy, max(-lo_z, hi_z)))
+        boxes[v, 0], boxes[v, 1], boxes[v, 2] = -hx - margin, -hy - margin, lo_z - margin
+        boxes[v, 3], boxes[v, 4], boxes[v, 5] = hx + margin, hy + margin, hi_z + margin
+
+
+@kernel
+def segment_misses_box(boxes, v, ax, ay, az, bx, by, bz):
+    """True when the local segment a -> b lies wholly outside volume v's local box (then neither the
+    static test of b nor the dynamic one of the segment can hit: both points lie on the segment)."""
+    return (min(ax, bx) > boxes[v, 3] or max(ax, bx) < boxes[v, 0]
+            or min(ay, by) > boxes[v, 4] or max(ay, by) < boxes[v, 1]
+            or min(az, bz) > boxes[v, 5] or max(az, bz) < boxes[v, 2])
+
+
+@kernel
 def substep_motion(pos0, rot0, pos1, rot1, displacement, chord):
     """Per volume: centre displacement and rotation chord 2 sin(theta/2) = sqrt(3 - tr(R1 R0^T))."""
     for v in range(pos0.shape[0]):
@@ -430,7 +478,7 @@ def substep_motion(pos0, rot0, pos1, rot1, displacement, chord):
         chord[v] = math.sqrt(max(0.0, 3.0 - trace)) * (1.0 + 1e-9) + 1e-12
 
 
-@njit(cache=True)
+@kernel
 def reach_radii(bounding_radii, displacement, chord, xs, x, inv_mass, reach):
     """Per volume, the distance from its end-pose centre beyond which no point's substep can touch it.
 
@@ -456,7 +504,7 @@ def reach_radii(bounding_radii, displacement, chord, xs, x, inv_mass, reach):
 
 # ----------------------------------------------------------------------------- pose interpolation
 
-@njit(cache=True)
+@kernel
 def interpolate_poses(pos_a, quat_a, pos_b, quat_b, fraction, out_pos, out_rot):
     """Poses at ``fraction`` between a and b: translation linear, rotation slerp (shorter arc),
     written as positions and rotation matrices into the preallocated outputs."""
@@ -494,7 +542,37 @@ def interpolate_poses(pos_a, quat_a, pos_b, quat_b, fraction, out_pos, out_rot):
 
 # ----------------------------------------------------------------------------- drivers over points
 
-@njit(cache=True)
+@kernel
+def _next_candidate(pos0, rot0, pos1, rot1, reach, boxes, xs, x, i, cache, start):
+    """The first uncached volume ``v >= start`` that point i may hit (within its reach, then its local box
+    meets the segment p0' -> p1); the volume count if none. Most pairs end here, in a few dozen flops."""
+    n_volumes = reach.shape[0]
+    for v in range(start, n_volumes):
+        if _out_of_reach(reach, pos1, v, x, i):
+            continue
+        bx, by, bz = to_local(pos1, rot1, v, x[i, 0], x[i, 1], x[i, 2])
+        ax, ay, az = to_local(pos0, rot0, v, xs[i, 0], xs[i, 1], xs[i, 2])
+        if segment_misses_box(boxes, v, ax, ay, az, bx, by, bz):
+            continue
+        cached = False
+        for c in range(cache.shape[1]):
+            cached = cached or cache[i, c] == v
+        if not cached:
+            return v
+    return n_volumes
+
+
+@kernel
+def _needs_handling(pos0, rot0, pos1, rot1, reach, boxes, xs, x, i, cache):
+    """Whether point i has a cached volume or may hit another one; if not, ``_handle_point_all`` would
+    change nothing. Checked first, in a loop without the handling's code, as most points are clear."""
+    for c in range(cache.shape[1]):
+        if cache[i, c] >= 0:
+            return True
+    return _next_candidate(pos0, rot0, pos1, rot1, reach, boxes, xs, x, i, cache, 0) < reach.shape[0]
+
+
+@kernel
 def _record(scratch, i, start, count, capacity, v):
     """Append v to the list scratch[i, start:start + count] unless it is there or full; new count."""
     for k in range(count):
@@ -506,10 +584,10 @@ def _record(scratch, i, start, count, capacity, v):
     return count
 
 
-@njit(cache=True)
+@kernel
 def _handle_point_all(kinds, radii, cuts, bounding_radii, switch_radii, pos0, rot0, pos1, rot1,
-                      displacement, chord, reach, xs, x, vel, i, h, eps, friction, c_time, switch_ratio, mode,
-                      use_broad_phase, cache, scratch):
+                      displacement, chord, reach, boxes, xs, x, vel, i, h, eps, friction, c_time, switch_ratio,
+                      mode, cache, scratch):
     """Point i against every volume, cached volumes first (temporal coherence), then rebuilds
     its cache row: this call's hits first, then the older entries the point is still near
     (the broad phase evicts the others). ``scratch[i]`` (length 2 C) holds the hits in its
@@ -520,42 +598,43 @@ def _handle_point_all(kinds, radii, cuts, bounding_radii, switch_radii, pos0, ro
     n_dynamic = 0
     n_hits = 0
     n_kept = 0
-    for step in range(2):
-        for s in range(cache_size if step == 0 else n_volumes):
-            if step == 0:
-                v = cache[i, s]
-                if v < 0:
-                    continue
-            else:
-                v = s
-                cached = False
-                for c in range(cache_size):
-                    cached = cached or cache[i, c] == v
-                if cached:
-                    continue
-            if use_broad_phase:
-                b2 = (x[i, 0] - pos1[v, 0]) ** 2 + (x[i, 1] - pos1[v, 1]) ** 2 + (x[i, 2] - pos1[v, 2]) ** 2
-                if b2 > reach[v] * reach[v]:
-                    continue
-                if broad_phase_rejects(bounding_radii, pos0, pos1, displacement, chord, v, xs, x, i):
-                    continue
-            code = handle_pair(kinds, radii, cuts, switch_radii, pos0, rot0, pos1, rot1, v,
-                               xs, x, vel, i, h, eps, friction, c_time, switch_ratio, mode)[0]
-            if code == NO_HIT:
-                if step == 0:
-                    n_kept = _record(scratch, i, cache_size, n_kept, cache_size, v)
-                continue
+    for s in range(cache_size):
+        v = cache[i, s]
+        if v < 0:
+            continue
+        # A cached volume the point left is evicted by the bounding-sphere test, which decides what
+        # handle_contacts sees next.
+        if (_out_of_reach(reach, pos1, v, x, i)
+                or broad_phase_rejects(bounding_radii, pos0, pos1, displacement, chord, v, xs, x, i)):
+            continue
+        code = handle_pair(kinds, radii, cuts, switch_radii, pos0, rot0, pos1, rot1, v,
+                           xs, x, vel, i, h, eps, friction, c_time, switch_ratio, mode)[0]
+        if code == NO_HIT:
+            n_kept = _record(scratch, i, cache_size, n_kept, cache_size, v)
+            continue
+        if code == STATIC_HIT:
+            n_static += 1
+        else:
+            n_dynamic += 1
+        n_hits = _record(scratch, i, 0, n_hits, cache_size, v)
+    v = _next_candidate(pos0, rot0, pos1, rot1, reach, boxes, xs, x, i, cache, 0)
+    while v < n_volumes:
+        code = handle_pair(kinds, radii, cuts, switch_radii, pos0, rot0, pos1, rot1, v,
+                           xs, x, vel, i, h, eps, friction, c_time, switch_ratio, mode)[0]
+        if code != NO_HIT:
             if code == STATIC_HIT:
                 n_static += 1
             else:
                 n_dynamic += 1
             n_hits = _record(scratch, i, 0, n_hits, cache_size, v)
+        # from the point's current position: a hit has moved it
+        v = _next_candidate(pos0, rot0, pos1, rot1, reach, boxes, xs, x, i, cache, v + 1)
     # Volumes overlap at the joints: being pushed out of one can push a point into its
     # neighbour (the crotch between pelvis and thigh). A few static passes settle it.
     for _ in range(_SETTLE_PASSES if n_static + n_dynamic > 0 else 0):
         moved = False
         for v in range(n_volumes):
-            if use_broad_phase and _outside_bounding_sphere(bounding_radii, pos1, v, x, i):
+            if _outside_bounding_sphere(bounding_radii, pos1, v, x, i):
                 continue
             code = handle_pair(kinds, radii, cuts, switch_radii, pos0, rot0, pos1, rot1, v,
                                xs, x, vel, i, h, eps, friction, c_time, switch_ratio, MODE_STATIC)[0]
@@ -582,19 +661,19 @@ def _handle_point_all(kinds, radii, cuts, bounding_radii, switch_radii, pos0, ro
     return n_static, n_dynamic
 
 
-@njit(cache=True)
+@kernel
 def handle_all(kinds, radii, cuts, bounding_radii, switch_radii, pos0, rot0, pos1, rot1,
-               displacement, chord, reach, xs, x, vel, inv_mass, h, eps, friction, c_time, switch_ratio, mode,
-               use_broad_phase, cache, scratch):
+               displacement, chord, reach, boxes, xs, x, vel, inv_mass, h, eps, friction, c_time, switch_ratio,
+               mode, cache, scratch):
     """Memo §3 step 5 over all points (serial). Returns (static hits, dynamic hits)."""
     n_static = 0
     n_dynamic = 0
     for i in range(x.shape[0]):
-        if inv_mass[i] == 0.0:
+        if inv_mass[i] == 0.0 or not _needs_handling(pos0, rot0, pos1, rot1, reach, boxes, xs, x, i, cache):
             continue
         s, d = _handle_point_all(kinds, radii, cuts, bounding_radii, switch_radii, pos0, rot0, pos1, rot1,
-                                 displacement, chord, reach, xs, x, vel, i, h, eps, friction, c_time, switch_ratio,
-                                 mode, use_broad_phase, cache, scratch)
+                                 displacement, chord, reach, boxes, xs, x, vel, i, h, eps, friction, c_time,
+                                 switch_ratio, mode, cache, scratch)
         n_static += s
         n_dynamic += d
     return n_static, n_dynamic
@@ -602,22 +681,41 @@ def handle_all(kinds, radii, cuts, bounding_radii, switch_radii, pos0, rot0, pos
 
 @njit(cache=True, parallel=True)
 def handle_all_parallel(kinds, radii, cuts, bounding_radii, switch_radii, pos0, rot0, pos1, rot1,
-                        displacement, chord, reach, xs, x, vel, inv_mass, h, eps, friction, c_time, switch_ratio,
-                        mode, use_broad_phase, cache, scratch):
+                        displacement, chord, reach, boxes, xs, x, vel, inv_mass, h, eps, friction, c_time,
+                        switch_ratio, mode, cache, scratch):
     """``handle_all`` with the points spread over threads (points are independent here)."""
     n_static = 0
     n_dynamic = 0
     for i in prange(x.shape[0]):
-        if inv_mass[i] != 0.0:
+        if inv_mass[i] != 0.0 and _needs_handling(pos0, rot0, pos1, rot1, reach, boxes, xs, x, i, cache):
             s, d = _handle_point_all(kinds, radii, cuts, bounding_radii, switch_radii, pos0, rot0, pos1, rot1,
-                                     displacement, chord, reach, xs, x, vel, i, h, eps, friction, c_time, switch_ratio,
-                                     mode, use_broad_phase, cache, scratch)
+                                     displacement, chord, reach, boxes, xs, x, vel, i, h, eps, friction, c_time,
+                                     switch_ratio, mode, cache, scratch)
             n_static += s
             n_dynamic += d
     return n_static, n_dynamic
 
 
-@njit(cache=True)
+@kernel
+def _contacts_point(kinds, radii, cuts, bounding_radii, switch_radii, pos0, rot0, pos1, rot1, xs, x, vel,
+                    i, h, eps, friction, switch_ratio, mode, cache):
+    """Point i against its cached volumes (``handle_contacts``); the number of hits."""
+    n_moved = 0
+    for c in range(cache.shape[1]):
+        v = cache[i, c]
+        if v < 0:
+            continue
+        b = math.sqrt((x[i, 0] - pos1[v, 0]) ** 2 + (x[i, 1] - pos1[v, 1]) ** 2 + (x[i, 2] - pos1[v, 2]) ** 2)
+        if b > bounding_radii[v]:
+            continue
+        code = handle_pair(kinds, radii, cuts, switch_radii, pos0, rot0, pos1, rot1, v,
+                           xs, x, vel, i, h, eps, friction, 0.0, switch_ratio, mode)[0]
+        if code != NO_HIT:
+            n_moved += 1
+    return n_moved
+
+
+@kernel
 def handle_contacts(kinds, radii, cuts, bounding_radii, switch_radii, pos0, rot0, pos1, rot1, xs, x, vel,
                     inv_mass, h, eps, friction, switch_ratio, mode, cache):
     """Memo §3 step 4: the cached (point, volume) pairs at the end poses, during the length correction.
@@ -630,23 +728,25 @@ def handle_contacts(kinds, radii, cuts, bounding_radii, switch_radii, pos0, rot0
     full handling responds them. Returns the number of points moved out."""
     n_moved = 0
     for i in range(x.shape[0]):
-        if inv_mass[i] == 0.0:
-            continue
-        for c in range(cache.shape[1]):
-            v = cache[i, c]
-            if v < 0:
-                continue
-            b = math.sqrt((x[i, 0] - pos1[v, 0]) ** 2 + (x[i, 1] - pos1[v, 1]) ** 2 + (x[i, 2] - pos1[v, 2]) ** 2)
-            if b > bounding_radii[v]:
-                continue
-            code = handle_pair(kinds, radii, cuts, switch_radii, pos0, rot0, pos1, rot1, v,
-                               xs, x, vel, i, h, eps, friction, 0.0, switch_ratio, mode)[0]
-            if code != NO_HIT:
-                n_moved += 1
+        if inv_mass[i] != 0.0:
+            n_moved += _contacts_point(kinds, radii, cuts, bounding_radii, switch_radii, pos0, rot0, pos1, rot1,
+                                       xs, x, vel, i, h, eps, friction, switch_ratio, mode, cache)
     return n_moved
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
+def handle_contacts_parallel(kinds, radii, cuts, bounding_radii, switch_radii, pos0, rot0, pos1, rot1, xs, x, vel,
+                             inv_mass, h, eps, friction, switch_ratio, mode, cache):
+    """``handle_contacts`` with the points spread over threads (each point only touches its own row)."""
+    n_moved = 0
+    for i in prange(x.shape[0]):
+        if inv_mass[i] != 0.0:
+            n_moved += _contacts_point(kinds, radii, cuts, bounding_radii, switch_radii, pos0, rot0, pos1, rot1,
+                                       xs, x, vel, i, h, eps, friction, switch_ratio, mode, cache)
+    return n_moved
+
+
+@kernel
 def _deepest_on_segment(kind, radii, cuts, v, ax, ay, az, bx, by, bz):
     """Where the segment a -> b (local frame) goes deepest into volume v: ``(t, inside)``.
 
@@ -688,8 +788,9 @@ def _deepest_on_segment(kind, radii, cuts, v, ax, ay, az, bx, by, bz):
 _EDGE_SLACK = 1.02
 
 
-@njit(cache=True)
-def handle_edges(kinds, radii, cuts, bounding_radii, pos0, rot0, pos, rot, edges, rest_lengths, xs, x, inv_mass):
+@kernel
+def handle_edges(kinds, radii, cuts, bounding_radii, boxes, pos0, rot0, pos, rot, edges, rest_lengths, xs, x,
+                 inv_mass):
     """Cloth edges against the volumes at the end poses (beyond the memo, which handles mass points only).
 
     physics: a limb pressed into an edge pushes its two mass points apart round its sides; once the
@@ -709,7 +810,10 @@ def handle_edges(kinds, radii, cuts, bounding_radii, pos0, rot0, pos, rot, edges
         b = edges[e, 1]
         if inv_mass[a] == 0.0 and inv_mass[b] == 0.0:
             continue
-        half = 0.5 * math.sqrt((x[b, 0] - x[a, 0]) ** 2 + (x[b, 1] - x[a, 1]) ** 2 + (x[b, 2] - x[a, 2]) ** 2)
+        length2 = (x[b, 0] - x[a, 0]) ** 2 + (x[b, 1] - x[a, 1]) ** 2 + (x[b, 2] - x[a, 2]) ** 2
+        if length2 < (1.0 - 1e-9) * (_EDGE_SLACK * rest_lengths[e]) ** 2:
+            continue  # most edges, without a square root; the exact test below decides the borderline ones
+        half = 0.5 * math.sqrt(length2)
         if 2.0 * half <= _EDGE_SLACK * rest_lengths[e]:
             continue  # a chord barely longer than its rest length between two outside points dips no deeper
         mx, my, mz = 0.5 * (x[a, 0] + x[b, 0]), 0.5 * (x[a, 1] + x[b, 1]), 0.5 * (x[a, 2] + x[b, 2])
@@ -719,6 +823,8 @@ def handle_edges(kinds, radii, cuts, bounding_radii, pos0, rot0, pos, rot, edges
                 continue
             ax, ay, az = to_local(pos, rot, v, x[a, 0], x[a, 1], x[a, 2])
             bx, by, bz = to_local(pos, rot, v, x[b, 0], x[b, 1], x[b, 2])
+            if segment_misses_box(boxes, v, ax, ay, az, bx, by, bz):
+                continue  # no point of the edge is inside the volume
             t, inside = _deepest_on_segment(kinds[v], radii, cuts, v, ax, ay, az, bx, by, bz)
             if not inside or t <= 0.0 or t >= 1.0:
                 continue
@@ -757,7 +863,7 @@ def handle_edges(kinds, radii, cuts, bounding_radii, pos0, rot0, pos, rot, edges
     return n_moved
 
 
-@njit(cache=True)
+@kernel
 def penetration_depths(kinds, radii, cuts, pos, rot, x, out):
     """Depth of every point inside its deepest volume (see ``penetration_depth``), 0 outside."""
     for i in range(x.shape[0]):
