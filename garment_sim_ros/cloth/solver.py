@@ -186,7 +186,7 @@ class GarmentSolver:
         if volumes is not None and len(volumes):
             from ..collision.collider import Collider
 
-            self.collider = Collider(volumes, n)
+            self.collider = Collider(volumes, n, cache_size=min(2, len(volumes)))
         self.state = ClothState(model.rest_positions.copy(), np.zeros((n, 3)))
         self.set_params(params)
 

@@ -101,21 +101,6 @@ def drape_params(n: int, correction_iterations: int = DEFAULT_CORRECTION_ITERATI
     )
 
 
-def _one_volume_solver(model, volumes: VolumeSet, params: SolverParams) -> GarmentSolver:
-    """A ``GarmentSolver`` against a one-volume set. ``GarmentSolver`` builds its ``Collider`` with the
-    default cache of 2 volumes per point, which a one-volume set refuses (the cache may not exceed the
-    volume count), so the solver is built without volumes and given a collider with a cache of 1.
-    Remove once the solver sizes the cache by the set: ``GarmentSolver(model, volumes, params)``."""
-    from ..collision.collider import Collider
-
-    solver = GarmentSolver(model, None, params)
-    solver.volumes = volumes
-    solver.frames = volumes.frames
-    solver.collider = Collider(volumes, model.num_points, cache_size=1)
-    solver.collider.set_params(params)
-    return solver
-
-
 class DrapeScene:
     """The drape scene at one resolution; ``advance()`` runs one frame of ``FRAME_S``."""
 
@@ -125,7 +110,7 @@ class DrapeScene:
         height = SPHERE_RADIUS_M + START_GAP_M
         self.model = build_cloth_model(square_cloth(n, height=height))
         volumes = VolumeSet((Volume("sphere", SPHERE, SPHERE_FRAME, (SPHERE_RADIUS_M,) * 3),))
-        self.solver = _one_volume_solver(self.model, volumes, params or drape_params(n))
+        self.solver = GarmentSolver(self.model, volumes, params or drape_params(n))
         self._structural = int(np.count_nonzero(self.model.spring_kinds == STRUCTURAL))
         self.frame = 0
         self.time = 0.0
