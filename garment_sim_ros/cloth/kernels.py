@@ -84,13 +84,8 @@ def length_correction(x, inv_mass, springs, rest, count, limit_ratio):
     for s in range(count):
         a = springs[s, 0]
         b = springs[s, 1]
-        dx = x[b, 0] - x[a, 0]
-        dy = x[b, 1] - x[a, 1]
-        dz = x[b, 2] - x[a, 2]
-        length = np.sqrt(dx * dx + dy * dy + dz * dz)
-        ratio = length / rest[s]
-        if ratio > worst:
-            worst = ratio
+        dx, dy, dz, length = _spring_vector(x, a, b)
+        worst = max(worst, length / rest[s])
         limit = (1.0 + limit_ratio) * rest[s]
         if length <= limit:
             continue
@@ -130,17 +125,20 @@ def set_attached(x, attached, targets):
 
 @njit(cache=True)
 def max_stretch(x, springs, rest, count):
+    """The largest length / rest length over the first ``count`` springs."""
     worst = 0.0
     for s in range(count):
-        a = springs[s, 0]
-        b = springs[s, 1]
-        dx = x[b, 0] - x[a, 0]
-        dy = x[b, 1] - x[a, 1]
-        dz = x[b, 2] - x[a, 2]
-        ratio = np.sqrt(dx * dx + dy * dy + dz * dz) / rest[s]
-        if ratio > worst:
-            worst = ratio
+        worst = max(worst, _spring_vector(x, springs[s, 0], springs[s, 1])[3] / rest[s])
     return worst
+
+
+@njit(cache=True, inline="always")
+def _spring_vector(x, a, b):
+    """(dx, dy, dz, length) from point a to point b."""
+    dx = x[b, 0] - x[a, 0]
+    dy = x[b, 1] - x[a, 1]
+    dz = x[b, 2] - x[a, 2]
+    return dx, dy, dz, np.sqrt(dx * dx + dy * dy + dz * dz)
 
 
 @njit(cache=True)
