@@ -21,6 +21,7 @@ $(STAMP): requirements.txt setup.py package.xml tools/build_tf2_msgs.sh $(wildca
 	$(PY) -m pip install --quiet -r requirements.txt
 	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e .
 	VENV=$(VENV) bash tools/build_tf2_msgs.sh
+	$(PY) -m garment_sim_ros.warmup
 	$(PY) -c "import rclpy, tf2_msgs.msg, visualization_msgs.msg, numba, rerun; print('venv ready:', rclpy.__name__, numba.__version__, rerun.__version__)"
 	touch $(STAMP)
 
