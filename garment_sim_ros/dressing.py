@@ -68,6 +68,8 @@ class DressedCharacter:
         for solver in self.solvers:
             frames += [f for f in solver.frames if f not in frames]
         self.frames = tuple(frames)
+        # each solver's frames as rows of ``self.frames``
+        self._rows = {id(s): [frames.index(f) for f in s.frames] for s in self.solvers}
         self._previous: tuple[SkeletonPose, RootMotion, float] | None = None
 
     @property
@@ -110,7 +112,7 @@ class DressedCharacter:
 
         steps = max(1, int(round(settle_s / frame_s)))
         start = time_s - (steps + hold_frames) * frame_s
-        selections = [[self.frames.index(f) for f in solver.frames] for solver in solvers]
+        selections = [self._rows[id(solver)] for solver in solvers]
         fp, fq = blended(0.0)
         for solver, sel in zip(solvers, selections):
             solver.reset(root_position, root_yaw, fp[sel], fq[sel], start)
@@ -139,7 +141,7 @@ class DressedCharacter:
         p1, q1 = self._frame_poses(pose, self.frames)
         reports = []
         for solver in self.solvers:
-            sel = [self.frames.index(f) for f in solver.frames]
+            sel = self._rows[id(solver)]
             frame = FrameInput(previous_time, time_s, start_motion.position, start_motion.yaw,
                                motion.position, motion.yaw, start_motion.velocity, start_motion.acceleration,
                                start_motion.yaw_rate, start_motion.yaw_acceleration,

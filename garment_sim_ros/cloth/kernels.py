@@ -115,12 +115,12 @@ def velocities_from_positions(x, x_start, h, v):
 
 
 @njit(cache=True)
-def set_attached(x, attached, targets):
+def set_attached(x, attached, targets0, targets1, fraction):
+    """Attached points to their targets, ``fraction`` of the way from ``targets0`` to ``targets1``."""
     for k in range(attached.shape[0]):
         i = attached[k]
-        x[i, 0] = targets[k, 0]
-        x[i, 1] = targets[k, 1]
-        x[i, 2] = targets[k, 2]
+        for c in range(3):
+            x[i, c] = targets0[k, c] + fraction * (targets1[k, c] - targets0[k, c])
 
 
 @njit(cache=True)

@@ -282,7 +282,7 @@ class GarmentSolver:
                 x[...] = math.nan  # the guard restores; collision handling would turn NaN into garbage
                 break
             kernels.integrate(x, v, self._forces, const.inv_mass, h, self._x_start)
-            kernels.set_attached(x, model.attached, targets0 + f1 * (targets1 - targets0))
+            kernels.set_attached(x, model.attached, targets0, targets1, f1)
             tac = clock()
             report.integration_s += tac - tic
             if collider is not None:
