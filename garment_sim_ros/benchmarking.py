@@ -65,7 +65,6 @@ def character_benchmark(garment: str, params: SolverParams, frame_s: float, fram
                         resolution: float = 1.0, rerun: bool = True, gait: str = "walk") -> dict:
     """Dress the procedural character (``gait``) in ``garment`` at ``resolution`` and time ``frames``
     frames of ``frame_s`` seconds after ``warmup`` untimed ones. Returns the per-frame medians."""
-    from .dressing import motion_from_poses
     from .markers import frame_markers
     from .rerun_log import RerunLogger, frame_payload
     from .ros.marker_cdr import serialize_marker_array
@@ -78,7 +77,7 @@ def character_benchmark(garment: str, params: SolverParams, frame_s: float, fram
     source = procedural_source(gait)
     character = make_character(source, [garment], params, resolution)
     solver = character.solvers[0]
-    character.dress(source.pose(0.0), 0.0, motion_from_poses(source.pose, source.joint_map, 0.0))
+    character.dress(source.pose(0.0), 0.0, source.motion(0.0))
 
     with tempfile.TemporaryDirectory(prefix="garment_sim_bench_") as folder:
         logger = RerunLogger("save", path=Path(folder) / "bench.rrd") if rerun else RerunLogger("off")
@@ -91,7 +90,7 @@ def character_benchmark(garment: str, params: SolverParams, frame_s: float, fram
             for frame in range(1, warmup + frames + 1):
                 t = frame * frame_s
                 pose = source.pose(t)
-                motion = motion_from_poses(source.pose, source.joint_map, t)
+                motion = source.motion(t)
                 tic = time.perf_counter()
                 reports = character.step(pose, motion, t)
                 toc = time.perf_counter()

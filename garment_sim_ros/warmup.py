@@ -14,7 +14,6 @@ from .body.pose_buffer import PoseBuffer
 from .body.sources import procedural_source
 from .collision.collider import PARALLEL_MIN_POINTS
 from .commands.simulate import make_character
-from .dressing import motion_from_poses
 from .markers import frame_markers
 from .params import DEFAULT_PARAMS
 from .rerun_log import frame_payload
@@ -31,7 +30,7 @@ def warm_up() -> float:
         for k in range(1, 4):
             t = k / 60.0
             pose = source.pose(t)
-            character.step(pose, motion_from_poses(source.pose, source.joint_map, t), t)
+            character.step(pose, source.motion(t), t)
         character.max_penetration()
         serialize_marker_array(frame_markers(frame_payload(character, pose), "warmup", "world", (0, 0), True))
     assert any(s.model.num_points >= PARALLEL_MIN_POINTS for s in character.solvers)

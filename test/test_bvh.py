@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from garment_sim_ros.body.bvh import UNIT_SCALES, BvhError, load_bvh
-from garment_sim_ros.transforms import quat_rotate
+from garment_sim_ros.body.skeleton import forward_kinematics
+from garment_sim_ros.transforms import IDENTITY_QUAT, quat_rotate
 
 DATA = Path(__file__).parent / "data"
 CLIPS = {
@@ -20,7 +21,7 @@ CLIPS = {
 
 @pytest.fixture(scope="module", params=sorted(CLIPS))
 def clip(request):
-    return load_bvh(DATA / request.param)
+    return load_bvh(DATA / request.param, keep_first_frame=True)  # every frame the file has
 
 
 def write(tmp_path, text: str, name: str = "clip.bvh") -> Path:
@@ -80,8 +81,10 @@ def test_cmu_units_are_detected_and_converted_to_metres(clip):
     assert 0.03 < x < 0.06 and 0.06 < y < 0.09 and -0.11 < z < -0.08
 
 
-def test_rest_pose_is_z_up_with_head_over_pelvis_over_feet(clip):
-    rest = clip.rest_pose()
+def test_cmu_offsets_pose_is_z_up_with_head_over_pelvis_over_feet(clip):
+    # CMU keeps its bind in the OFFSETS, so identity rotations stand it up: a check of the axis conversion
+    # (other rigs do not stand so; see body.canonical).
+    rest = forward_kinematics(clip.skeleton, clip.offsets, np.tile(IDENTITY_QUAT, (len(clip.skeleton.names), 1)))
     z = dict(zip(clip.skeleton.names, rest.positions[:, 2]))
     assert z["Head_end"] > z["Head"] > z["Hips"] == 0.0
     toes = [n for n in z if n.startswith("LeftToe")]
@@ -123,10 +126,15 @@ def test_sample_interpolates_between_frames_and_loops(clip):
                                clip.pose(i).positions, atol=1e-6)
 
 
-def test_skip_first_frame_drops_the_t_pose():
-    full = load_bvh(DATA / "cmu_01_01_jumps_turnaround.bvh")
-    skipped = load_bvh(DATA / "cmu_01_01_jumps_turnaround.bvh", skip_first_frame=True)
+def test_a_reference_frame_zero_is_dropped_unless_kept():
+    full = load_bvh(DATA / "cmu_01_01_jumps_turnaround.bvh", keep_first_frame=True)
+    skipped = load_bvh(DATA / "cmu_01_01_jumps_turnaround.bvh")
+    assert skipped.dropped_reference_frame and not full.dropped_reference_frame
     assert skipped.frames == full.frames - 1
+    # A clip that starts moving at once keeps its frame 0.
+    walk = load_bvh(DATA / "cmu_131_01_walk_mjstyle.bvh")
+    assert not walk.dropped_reference_frame
+    assert walk.frames == load_bvh(DATA / "cmu_131_01_walk_mjstyle.bvh", keep_first_frame=True).frames
     np.testing.assert_allclose(skipped.pose(0).positions, full.pose(1).positions)
     # Frame 0 is the T-pose: every non-root joint of the file is at most 17 deg from rest.
     angles = 2 * np.degrees(np.arccos(np.clip(np.abs(full.rotations[0, 1:, 3]), 0, 1)))

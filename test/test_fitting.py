@@ -11,6 +11,7 @@ import pytest
 
 from garment_sim_ros import cli
 from garment_sim_ros.body.bvh import load_bvh
+from garment_sim_ros.body.canonical import canonical_pose
 from garment_sim_ros.body.fitting import (
     BASIC_VOLUMES, DETAILED_VOLUMES, BodyConfigError, fit_body, load_body_overrides,
 )
@@ -42,8 +43,9 @@ def clip(request):
 
 @pytest.fixture(scope="module")
 def fitted(clip):
-    rest = clip.rest_pose()
-    joint_map = auto_joint_map(clip.skeleton, rest.positions)
+    first = clip.pose(0)
+    joint_map = auto_joint_map(clip.skeleton, first.positions)
+    rest = canonical_pose(first, joint_map)
     return clip, fit_body(rest, joint_map), fit_body(rest, joint_map, detailed=True)
 
 
@@ -234,7 +236,11 @@ def test_override_changes_the_volume_and_the_measurement(fitted, tmp_path):
     assert volumes["left_upper_leg"].radii == (0.1, 0.1, 0.3)
     assert changed.measurements.thigh_radius == pytest.approx(0.1)
     assert volumes["pelvis"].cut == (-0.1, 0.2) and volumes["pelvis"].offset_position == (0.0, 0.0, -0.12)
-    assert changed.measurements.waist_z == pytest.approx(-0.12 + 0.2)
+    # The offset is in the pelvis joint's frame (tilted as the skeleton's pelvis is in the canonical pose);
+    # the volume stays upright, so the waistband is its cut's top above that centre.
+    pelvis_rotation = body.rest_pose.frame(body.joint_map["pelvis"])[1]
+    drop = quat_rotate(pelvis_rotation, np.array([0.0, 0.0, -0.12]))[2]
+    assert changed.measurements.waist_z == pytest.approx(drop + 0.2)
 
 
 @pytest.mark.parametrize("text,pattern", [

@@ -86,9 +86,9 @@ def test_procedural_walker_on_tf_composes_to_its_pose(ros_context):
 
 
 def test_bvh_clip_on_tf_composes_to_its_pose(ros_context):
-    overrides = {"bvh": str(CLIP), "skip_first_frame": True, "fixed_frame": "map"}
+    overrides = {"bvh": str(CLIP), "fixed_frame": "map"}
     player, buffer, stamps = play(ros_context, overrides)
-    source = bvh_source(str(CLIP), skip_first_frame=True)
+    source = bvh_source(str(CLIP))
     assert buffer.parent(source.skeleton.names[0]) == "map"
     assert_poses_agree(player, buffer, stamps, source)
 

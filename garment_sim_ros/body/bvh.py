@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -40,10 +40,11 @@ UNIT_SCALES: dict[str, float] = {
     "inch": 0.0254,
     "cmu": 0.05644,
 }
-# Auto-detection picks the unit that makes the rest pose's vertical extent closest to this
-# (an adult's joints span ~1.45 m: end of the head to the toes), within the plausible range.
-_TYPICAL_EXTENT_M = 1.45
-_PLAUSIBLE_EXTENT_M = (0.5, 3.0)
+# Auto-detection picks the unit that makes the skeleton's longest bone path (a foot to the other
+# hand, ``_tree_span``) closest to this, within the plausible range: measured 2.09-2.22 m on the
+# shared CMU, Xia and Character Creator clips (1.6-1.9 m people).
+_TYPICAL_EXTENT_M = 2.1
+_PLAUSIBLE_EXTENT_M = (0.7, 4.5)
 
 # BVH axis letter -> the REP-103 axis it becomes under M.
 _REP_AXIS = {"X": np.array([0.0, 1.0, 0.0]), "Y": np.array([0.0, 0.0, 1.0]), "Z": np.array([1.0, 0.0, 0.0])}
@@ -75,6 +76,7 @@ class Clip:
     rotations: np.ndarray
     frame_time: float
     units_scale: float  # metres per file unit
+    dropped_reference_frame: bool = False  # frame 0 of the file was a reference pose and is not here
 
     @property
     def frames(self) -> int:
@@ -94,10 +96,15 @@ class Clip:
             raise IndexError(f"{self.path}: frame {i} out of range; the clip has {self.frames} frames")
         return forward_kinematics(self.skeleton, self.translations[i], self.rotations[i])
 
-    def rest_pose(self) -> SkeletonPose:
-        """Every rotation identity: the OFFSETS pose, with the root at the origin."""
-        count = len(self.skeleton.names)
-        return forward_kinematics(self.skeleton, self.offsets, np.tile(IDENTITY_QUAT, (count, 1)))
+    def without_first_frame(self) -> "Clip":
+        if self.frames < 2:
+            raise BvhError(f"{self.path}: cannot drop the first frame of a clip with {self.frames} frame")
+        return replace(self, translations=self.translations[1:], rotations=self.rotations[1:],
+                       dropped_reference_frame=True)
+
+    def frame_positions(self, frames: slice) -> np.ndarray:
+        """World joint positions (F, J, 3) of a range of frames."""
+        return np.array([self.pose(i).positions for i in range(*frames.indices(self.frames))])
 
     def sample_local(self, t: float, loop: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """Local translations (J, 3) and rotations (J, 4) at time ``t`` (s from the first frame).
@@ -268,12 +275,32 @@ def _parse_motion(lines: _Lines, channel_count: int) -> tuple[np.ndarray, float]
     return data, frame_time
 
 
-def _rest_extent(joints: list[_Joint]) -> float:
-    """Vertical (BVH y) span of the OFFSETS pose, file units."""
-    heights = np.zeros(len(joints))
+def _tree_span(joints: list[_Joint]) -> float:
+    """The longest path between two joints along the bones (sum of OFFSET lengths), file units.
+
+    Pose-independent, unlike the OFFSETS pose's height: rigs that keep their bind in the rotation
+    channels lay their bones along one axis (all flat, or all stacked) when rotations are identity.
+    For a human this is the span from a foot to a hand (about 1.3 statures, fingers included)."""
+    neighbours: list[list[tuple[int, float]]] = [[] for _ in joints]
     for i, joint in enumerate(joints):
-        heights[i] = joint.offset[1] + (heights[joint.parent] if joint.parent >= 0 else 0.0)
-    return float(heights.max() - heights.min())
+        if joint.parent >= 0:
+            length = float(np.linalg.norm(joint.offset))
+            neighbours[i].append((joint.parent, length))
+            neighbours[joint.parent].append((i, length))
+
+    def farthest(start: int) -> tuple[int, float]:
+        distance = {start: 0.0}
+        stack = [start]
+        while stack:
+            i = stack.pop()
+            for j, length in neighbours[i]:
+                if j not in distance:
+                    distance[j] = distance[i] + length
+                    stack.append(j)
+        end = max(distance, key=distance.get)
+        return end, distance[end]
+
+    return farthest(farthest(0)[0])[1]  # two sweeps find a tree's longest path
 
 
 def resolve_units(units: str | float, extent: float, path: str) -> float:
@@ -284,11 +311,11 @@ def resolve_units(units: str | float, extent: float, path: str) -> float:
         return float(units)
     if units == "auto":
         if extent <= 0.0:
-            raise BvhError(f"{path}: the rest pose has no vertical extent; cannot detect units, pass units=")
+            raise BvhError(f"{path}: the skeleton's bones have no length; cannot detect units, pass units=")
         plausible = {name: scale for name, scale in UNIT_SCALES.items()
                      if _PLAUSIBLE_EXTENT_M[0] <= extent * scale <= _PLAUSIBLE_EXTENT_M[1]}
         if not plausible:
-            raise BvhError(f"{path}: rest pose spans {extent:g} file units, which is no human height in any of "
+            raise BvhError(f"{path}: the skeleton spans {extent:g} file units foot to hand, which is no human in any of "
                            f"{', '.join(UNIT_SCALES)}; pass units= explicitly")
         return min(plausible.values(), key=lambda s: abs(math.log(extent * s / _TYPICAL_EXTENT_M)))
     if units in UNIT_SCALES:
@@ -306,11 +333,13 @@ def _euler_quaternions(channels: list[str], values: np.ndarray) -> np.ndarray:
     return rotation
 
 
-def load_bvh(path: str | Path, units: str | float = "auto", skip_first_frame: bool = False) -> Clip:
+def load_bvh(path: str | Path, units: str | float = "auto", keep_first_frame: bool = False) -> Clip:
     """Read a BVH file into a ``Clip`` in REP-103 metres.
 
     ``units``: ``"auto"`` (from the rest pose's height), a name of ``UNIT_SCALES`` or metres per
-    file unit. ``skip_first_frame``: drop frame 0 (CMU clips often start with a T-pose).
+    file unit. Frame 0 is dropped when it is a reference pose (``starts_with_reference_frame``: a
+    T-pose the motion jumps away from, as in CMU 01_01 and the Character Creator exports;
+    ``Clip.dropped_reference_frame`` says so), unless ``keep_first_frame``.
     """
     path = str(path)
     try:
@@ -321,11 +350,7 @@ def load_bvh(path: str | Path, units: str | float = "auto", skip_first_frame: bo
     joints = _parse_hierarchy(lines)
     channel_count = sum(len(j.channels) for j in joints)
     data, frame_time = _parse_motion(lines, channel_count)
-    if skip_first_frame:
-        if data.shape[0] < 2:
-            raise BvhError(f"{path}: cannot skip the first frame of a clip with {data.shape[0]} frame")
-        data = data[1:]
-    scale = resolve_units(units, _rest_extent(joints), path)
+    scale = resolve_units(units, _tree_span(joints), path)
 
     names = [j.name for j in joints]
     duplicates = sorted({n for n in names if names.count(n) > 1})
@@ -347,7 +372,7 @@ def load_bvh(path: str | Path, units: str | float = "auto", skip_first_frame: bo
                 translations_file[:, i, "XYZ".index(axis)] = values[:, k]
         rotations[:, i] = _euler_quaternions(joint.channels, values)
         column += len(joint.channels)
-    return Clip(
+    clip = Clip(
         path=path,
         skeleton=skeleton,
         offsets=bvh_to_rep(offsets_file) * scale,
@@ -356,3 +381,22 @@ def load_bvh(path: str | Path, units: str | float = "auto", skip_first_frame: bo
         frame_time=frame_time,
         units_scale=scale,
     )
+    return clip if keep_first_frame or not starts_with_reference_frame(clip) else clip.without_first_frame()
+
+
+# A first frame counts as a reference pose when the joints move, on average, this much more from it
+# to frame 1 than between the frames after it, and at least REFERENCE_JUMP_M (m): measured on the shared
+# clips, real first steps move 0.2-2 cm per frame, the reference frames 11-180 cm.
+REFERENCE_JUMP_RATIO = 5.0
+REFERENCE_JUMP_M = 0.05
+_REFERENCE_WINDOW = 12  # frames after the first that set the clip's usual step
+
+
+def starts_with_reference_frame(clip: Clip) -> bool:
+    """Whether frame 0 is a reference pose (T/A-pose) rather than motion: the mean joint moves much
+    farther from it to frame 1 than it usually moves in a frame."""
+    if clip.frames < 3:
+        return False
+    positions = clip.frame_positions(slice(0, _REFERENCE_WINDOW + 2))
+    steps = np.linalg.norm(np.diff(positions, axis=0), axis=2).mean(axis=1)
+    return bool(steps[0] > REFERENCE_JUMP_M and steps[0] > REFERENCE_JUMP_RATIO * np.median(steps[1:]))

@@ -1,6 +1,7 @@
 """Body volumes and measurements fitted to a skeleton's own bone lengths (memo §6.1).
 
-``fit_body(rest_pose, joint_map)`` encloses the body in the memo's 10 volumes (pelvis, torso,
+``fit_body(rest_pose, joint_map)`` encloses the body, in its canonical standing pose
+(``body.canonical.canonical_pose``: legs straight down, spine up, arms in an A-pose), in the memo's 10 volumes (pelvis, torso,
 chest, head, upper and lower legs, upper arms), or 15 with ``detailed=True`` (plus neck,
 forearms, feet: the one-piece dress), and derives the ``BodyMeasurements`` garments are cut
 from, so a tall and a short skeleton both get garments that fit.
@@ -20,6 +21,11 @@ Missing optional roles fall back: no spine -> the torso starts at the pelvis; no
 stops at the shoulders and the neck volume rides on the chest; no foot, lower arm or hand -> the
 segment before ends at its joint's first child (its own length from Winter's ratios if it has
 none), and the detailed body has no foot or forearm volume on that side.
+
+Plausibility. Every measurement taken from the skeleton (limb radii, hip and shoulder joint
+spacing, the head) is checked against human ranges relative to the stature
+(``PLAUSIBLE_PER_STATURE``); one outside is replaced by the anthropometric estimate and named in
+``Body.estimated``, so a rig with odd bones still gets a human body (and says which parts were guessed).
 
 Sizes. Radii are anthropometric ratios of the skeleton's own lengths: limb radii of the bone's
 length, trunk widths of the hip-joint and shoulder-joint spacing, levels (waist, crotch,
@@ -80,6 +86,21 @@ JOINT_TAPER = 0.7
 TRUNK_TAPER = 0.9
 CUT_PAST_JOINT = 0.15  # fraction of the half length
 
+# Human ranges (low, high) and the estimate used outside them, per stature (the stature is read from the
+# legs): radii at mid-bone, half spacings of the hip and shoulder joints, the head. The estimates are
+# the ratios above for a 1.75 m adult (Winter, table 4.1; hip and shoulder joint spacing from the
+# biacromial and bi-iliac breadths, 0.23 H and 0.17 H, less the joints' depth in the body); the
+# ranges span slim to broad adults and the shared clips' bodies (thigh 0.048-0.051 H).
+PLAUSIBLE_PER_STATURE: dict[str, tuple[float, float, float]] = {
+    "thigh_radius": (0.035, 0.065, 0.050),
+    "shin_radius": (0.022, 0.045, 0.033),
+    "upper_arm_radius": (0.018, 0.045, 0.030),
+    "forearm_radius": (0.015, 0.040, 0.025),
+    "leg_y": (0.030, 0.075, 0.050),
+    "shoulder_y": (0.075, 0.140, 0.105),
+    "head_radius": (0.045, 0.075, HEAD_RADIUS_PER_STATURE),
+}
+
 BASIC_VOLUMES: tuple[str, ...] = (
     "pelvis", "torso", "chest", "head",
     "left_upper_leg", "right_upper_leg", "left_lower_leg", "right_lower_leg",
@@ -109,6 +130,7 @@ class Body:
     measurements: BodyMeasurements
     joint_map: Mapping[str, str]
     rest_pose: SkeletonPose
+    estimated: tuple[str, ...] = ()  # measurements out of human range, replaced by estimates (PLAUSIBLE_PER_STATURE)
 
 
 def check_overrides(data: Any, source: str) -> BodyOverrides:
@@ -219,23 +241,42 @@ class _Fit:
         return self.attach(name, ELLIPSOID, frame_role, start + unit * 0.5 * (s0 + s1), unit, (rx, ry, a_z),
                            (-half - past, half + past))
 
-    def bone(self, name: str, role: str, next_role: str | None, radius_per_length: float,
-             fallback_length: float) -> Volume:
+    def bone(self, role: str, next_role: str | None, fallback_length: float) -> tuple[np.ndarray, np.ndarray]:
+        """Start and end (world) of the segment starting at ``role``."""
         start = self.world(role)
         end = self.bone_end(role, next_role)
         if end is None:  # a leaf limb joint: the bone runs on along its parent's direction
             parent = self.pose.skeleton.parents[self.pose.skeleton.index(self.map[role])]
             end = start + fallback_length * _unit(start - self.pose.positions[parent])
+        return start, end
+
+    def limb(self, name: str, start: np.ndarray, end: np.ndarray, radius: float) -> Volume:
         length = float(np.linalg.norm(end - start))
-        r = radius_per_length * length
-        return self.volume(name, role, start, end - start, 0.0, length, r, r, JOINT_TAPER)
+        return self.volume(name, name, start, end - start, 0.0, length, radius, radius, JOINT_TAPER)
+
+
+class _Plausibility:
+    """Measurements checked against human ranges relative to the stature; one out of range is
+    replaced by the anthropometric estimate and its name recorded (``Body.estimated``)."""
+
+    def __init__(self, stature: float):
+        self.stature = stature
+        self.estimated: list[str] = []
+
+    def __call__(self, name: str, value: float) -> float:
+        low, high, typical = PLAUSIBLE_PER_STATURE[name]
+        if low * self.stature <= value <= high * self.stature:
+            return value
+        if name not in self.estimated:
+            self.estimated.append(name)
+        return typical * self.stature
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
-def _fit_volumes(fit: _Fit, detailed: bool) -> tuple[list[Volume], dict[str, float]]:
+def _fit_volumes(fit: _Fit, detailed: bool) -> tuple[list[Volume], dict[str, float], list[str]]:
     sides = ("left", "right")
     hip_joints = [fit.local(fit.world(f"{s}_upper_leg")) for s in sides]
     knees = [fit.world(f"{s}_lower_leg") for s in sides]
@@ -243,20 +284,27 @@ def _fit_volumes(fit: _Fit, detailed: bool) -> tuple[list[Volume], dict[str, flo
     ankles = [fit.bone_end(f"{s}_lower_leg", f"{s}_foot") for s in sides]
     shin = [float(np.linalg.norm(a - k)) if a is not None else t for a, k, t in zip(ankles, knees, thigh)]
     stature = (np.mean(thigh) + np.mean(shin)) / LEG_PER_STATURE
+    plausible = _Plausibility(stature)
     hip_joint_z = float(np.mean([h[2] for h in hip_joints]))
-    leg_y = float(np.mean([abs(h[1]) for h in hip_joints]))
+    leg_y = plausible("leg_y", float(np.mean([abs(h[1]) for h in hip_joints])))
     shoulders = [fit.local(fit.world(f"{s}_upper_arm")) for s in sides]
     shoulder_z = float(np.mean([p[2] for p in shoulders]))
-    shoulder_y = float(np.mean([abs(p[1]) for p in shoulders]))
+    shoulder_y = plausible("shoulder_y", float(np.mean([abs(p[1]) for p in shoulders])))
+
+    def limb(role: str, next_role: str | None, measurement: str, radius_per_length: float,
+             fallback_length: float) -> Volume:
+        start, end = fit.bone(role, next_role, fallback_length)
+        radius = plausible(measurement, radius_per_length * float(np.linalg.norm(end - start)))
+        return fit.limb(role, start, end, radius)
 
     volumes: list[Volume] = []
     for s, t, sh in zip(sides, thigh, shin):
-        volumes.append(fit.bone(f"{s}_upper_leg", f"{s}_upper_leg", f"{s}_lower_leg", THIGH_RADIUS_PER_LENGTH, t))
-        volumes.append(fit.bone(f"{s}_lower_leg", f"{s}_lower_leg", f"{s}_foot", SHIN_RADIUS_PER_LENGTH, sh))
+        volumes.append(limb(f"{s}_upper_leg", f"{s}_lower_leg", "thigh_radius", THIGH_RADIUS_PER_LENGTH, t))
+        volumes.append(limb(f"{s}_lower_leg", f"{s}_foot", "shin_radius", SHIN_RADIUS_PER_LENGTH, sh))
     for s in sides:
-        volumes.append(fit.bone(f"{s}_upper_arm", f"{s}_upper_arm", f"{s}_lower_arm",
-                                UPPER_ARM_RADIUS_PER_LENGTH, UPPER_ARM_PER_STATURE * stature))
-    thigh_radius = THIGH_RADIUS_PER_LENGTH * float(np.mean(thigh))
+        volumes.append(limb(f"{s}_upper_arm", f"{s}_lower_arm", "upper_arm_radius", UPPER_ARM_RADIUS_PER_LENGTH,
+                            UPPER_ARM_PER_STATURE * stature))
+    thigh_radius = float(np.mean([v.radii[0] for v in volumes if v.name.endswith("upper_leg")]))
 
     # Pelvis: upright, widest at the hip joints, from the crotch to the waist, covering the thigh tops.
     hip_ry = leg_y + thigh_radius
@@ -293,7 +341,7 @@ def _fit_volumes(fit: _Fit, detailed: bool) -> tuple[list[Volume], dict[str, flo
                               CHEST_DEPTH_PER_WIDTH * chest_ry, chest_ry, TRUNK_TAPER))
 
     # Head: a sphere along the head (towards its child, else up from the neck).
-    head_radius = HEAD_RADIUS_PER_STATURE * stature
+    head_radius = plausible("head_radius", HEAD_RADIUS_PER_STATURE * stature)
     head_end = fit.bone_end("head", None)
     head_axis = _unit(head_end - head) if head_end is not None and np.linalg.norm(head_end - head) > 0.3 * head_radius \
         else _unit(head - (neck_base if "neck" in fit.map else chest))
@@ -308,13 +356,13 @@ def _fit_volumes(fit: _Fit, detailed: bool) -> tuple[list[Volume], dict[str, flo
                                   float(np.linalg.norm(head - neck_start)), neck_radius, neck_radius, TRUNK_TAPER))
         for s in sides:
             if f"{s}_lower_arm" in fit.map:
-                volumes.append(fit.bone(f"{s}_lower_arm", f"{s}_lower_arm", f"{s}_hand",
-                                        FOREARM_RADIUS_PER_LENGTH, FOREARM_PER_STATURE * stature))
+                volumes.append(limb(f"{s}_lower_arm", f"{s}_hand", "forearm_radius", FOREARM_RADIUS_PER_LENGTH,
+                                    FOREARM_PER_STATURE * stature))
             if f"{s}_foot" in fit.map:
                 volumes.append(_foot(fit, s))
     levels = {"stature": stature, "hip_joint_z": hip_joint_z, "leg_y": leg_y, "thigh": float(np.mean(thigh)),
               "shin": float(np.mean(shin)), "shoulder_z": shoulder_z, "shoulder_y": shoulder_y}
-    return volumes, levels
+    return volumes, levels, plausible.estimated
 
 
 def _foot(fit: _Fit, side: str) -> Volume:
@@ -418,6 +466,8 @@ def fit_body(rest_pose: SkeletonPose, joint_map: Mapping[str, str], detailed: bo
              overrides: BodyOverrides | Mapping | None = None) -> Body:
     """Fit the bounding volumes and measurements of the body the skeleton's rest pose defines.
 
+    ``rest_pose``: the canonical standing pose (``body.canonical.canonical_pose``); volumes are
+    attached to joint frames in it, so it must be a pose of the skeleton that moves.
     ``overrides``: a ``BodyOverrides`` (``load_body_overrides``) or a mapping
     ``{volume: {radii: [x, y, z], cut: [lo, hi], offset_position: [x, y, z]}}`` (metres, the
     volume's local frame / its joint frame), applied after fitting.
@@ -426,8 +476,8 @@ def fit_body(rest_pose: SkeletonPose, joint_map: Mapping[str, str], detailed: bo
     if not isinstance(overrides, BodyOverrides):
         overrides = check_overrides({"volumes": overrides} if overrides else None, "overrides")
     fit = _Fit(rest_pose, joint_map)
-    volumes, levels = _fit_volumes(fit, detailed)
+    volumes, levels, estimated = _fit_volumes(fit, detailed)
     order = DETAILED_VOLUMES if detailed else BASIC_VOLUMES
     volumes.sort(key=lambda v: order.index(v.name))
     volume_set = VolumeSet(tuple(_apply_overrides(volumes, overrides)))
-    return Body(volume_set, _measure(fit, volume_set, levels), joint_map, rest_pose)
+    return Body(volume_set, _measure(fit, volume_set, levels), joint_map, rest_pose, tuple(estimated))

@@ -8,12 +8,13 @@ import sys
 import numpy as np
 
 from ..body.bvh import UNIT_SCALES, BvhError, Clip, load_bvh
+from ..body.canonical import canonical_pose
 from ..body.fitting import Body, BodyConfigError, fit_body, load_body_overrides
 from ..body.joint_map import JointMapError, auto_joint_map, load_joint_map
 from ..collision.volumes import KIND_NAMES
 
 HELP = ("Read a BVH clip (converted to REP-103 z-up metres) and print the detected joint map, the body "
-        "volumes fitted to its skeleton and clip info (frames, fps, duration, mean horizontal pelvis speed).")
+        "volumes fitted to its skeleton in the canonical standing pose, the measurements estimated and clip info (frames, fps, duration, mean horizontal pelvis speed).")
 
 _KIND_LABELS = {code: label for label, code in KIND_NAMES.items()}
 
@@ -24,7 +25,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--units", default="auto",
                         help=f"file length unit: auto (from the skeleton's height), {', '.join(UNIT_SCALES)}, "
                              "or metres per unit")
-    parser.add_argument("--skip-first-frame", action="store_true", help="drop frame 0 (a T-pose in CMU clips)")
+    parser.add_argument("--keep-first-frame", action="store_true",
+                        help="keep frame 0 even when it is a reference pose (dropped by default)")
     parser.add_argument("--joint-map", metavar="YAML", help="joint map file instead of the automatic mapper")
     parser.add_argument("--detailed", action="store_true", help="fit the 15-volume body (neck, forearms, feet)")
     parser.add_argument("--body-config", metavar="YAML", help="volume overrides (default: config/body.yaml)")
@@ -61,6 +63,8 @@ def summary(clip: Clip, body: Body) -> dict:
         "duration_s": round(clip.duration, 4),
         "root_speed_mps": round(root_speed(clip, body.joint_map["pelvis"]), 4),
         "units_scale": clip.units_scale,
+        "dropped_reference_frame": clip.dropped_reference_frame,
+        "estimated": list(body.estimated),
         "measurements": {k: round(float(v), 4) for k, v in vars(body.measurements).items()},
     }
 
@@ -68,6 +72,10 @@ def summary(clip: Clip, body: Body) -> dict:
 def _print_text(info: dict) -> None:
     print(f"{info['file']}: {info['frames']} frames at {info['fps']:g} fps, {info['duration_s']:.2f} s, "
           f"pelvis {info['root_speed_mps']:.2f} m/s, {info['units_scale']:g} m per file unit")
+    if info["dropped_reference_frame"]:
+        print("frame 0 is a reference pose the motion jumps away from: not used (--keep-first-frame keeps it)")
+    print("estimated (out of human range, replaced by an estimate from the height): "
+          + (", ".join(info["estimated"]) or "nothing"))
     print("joint map:")
     for role, frame in info["joint_map"].items():
         print(f"  {role:<16} {frame}")
@@ -82,13 +90,13 @@ def _print_text(info: dict) -> None:
 
 def run(args) -> int:
     try:
-        clip = load_bvh(args.bvh, units=_units(args.units), skip_first_frame=args.skip_first_frame)
-        rest = clip.rest_pose()
+        clip = load_bvh(args.bvh, units=_units(args.units), keep_first_frame=args.keep_first_frame)
+        first = clip.pose(0)
         if args.joint_map:
             joint_map = load_joint_map(args.joint_map, clip.skeleton)
         else:
-            joint_map = auto_joint_map(clip.skeleton, rest.positions)
-        body = fit_body(rest, joint_map, detailed=args.detailed, overrides=load_body_overrides(args.body_config))
+            joint_map = auto_joint_map(clip.skeleton, first.positions)
+        body = fit_body(canonical_pose(first, joint_map), joint_map, detailed=args.detailed, overrides=load_body_overrides(args.body_config))
         info = summary(clip, body)
     except (BvhError, JointMapError, BodyConfigError, FileNotFoundError, ValueError) as err:
         print(f"garment-sim skeleton: {err}", file=sys.stderr)

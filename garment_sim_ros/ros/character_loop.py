@@ -4,9 +4,9 @@ The node calls ``frame(T)`` once per timer tick with ``T = D_last + now`` (memo 
 module decides what happens:
 
 1. No character yet: wait for a complete skeleton under the fixed frame within the frame prefix
-   (the same tree on two consecutive frames, every frame sampled), take its rest pose from the
-   bone offsets (``offsets_pose``), map it (``auto_joint_map`` on the names without the prefix,
-   or ``joint_map_file``), fit the body (detailed volumes when a one-piece is worn), build the
+   (the same tree on two consecutive frames, every frame sampled), map it (``auto_joint_map`` on
+   the names without the prefix, or ``joint_map_file``), stand it up (``canonical_pose``: the bones
+   seen on /tf, checked to be the same a moment earlier, in the canonical standing pose), fit the body (detailed volumes when a one-piece is worn), build the
    ``DressedCharacter`` and dress it at ``T``. A skeleton that cannot be mapped is logged with the
    missing roles and retried only when the tree changes; the loop keeps waiting.
 2. Running: sample the skeleton and root motion at ``T`` and step every garment from the last
@@ -51,7 +51,8 @@ import numpy as np
 from ..body.fitting import fit_body, load_body_overrides
 from ..body.joint_map import auto_joint_map, load_joint_map
 from ..body.pose_buffer import PoseBuffer, SampleStatus
-from ..body.skeleton import Skeleton, SkeletonPose, offsets_pose
+from ..body.canonical import canonical_pose, local_transforms
+from ..body.skeleton import Skeleton, SkeletonPose
 from ..cloth.solver import FrameReport
 from ..dressing import DressedCharacter
 from ..params import SolverParams
@@ -62,6 +63,11 @@ CATCH_UP_WALL_S = 0.1  # ...and spends at most about this long on them (a busy m
 CLOCK_JUMP_BACK_S = 1.0  # a clock this far behind the last frame restarts (sim time reset, looped bag)
 LOG_PERIOD_S = 5.0  # the same warning at most this often
 MAX_ROOT_SPEED = 12.0  # m/s, faster than any sprinter: a root faster than this within a frame teleported
+# Bones seen on /tf must match those BONE_CHECK_S earlier within this tolerance (m + fraction) before the
+# body is fitted: a rigid skeleton's bones do not change, a retargeting or scaling one does.
+BONE_CHECK_S = 0.1
+BONE_TOLERANCE_M = 0.005
+BONE_TOLERANCE = 0.02
 _USABLE = (SampleStatus.OK, SampleStatus.EXTRAPOLATED)
 
 
@@ -294,6 +300,11 @@ class CharacterLoop:
         if sample.status not in _USABLE:
             return self._wait(Status.WAITING, f"waiting for the skeleton under {root!r}: {sample.status.value}: "
                                               f"{sample.detail}")
+        changing = self._bones_settled(skeleton, time_s, sample.pose)
+        if changing:
+            self.counts["bones_changing"] += 1
+            return self._wait(Status.WAITING, f"waiting for the skeleton under {root!r} to hold still in shape: "
+                                              f"{changing}", "warning")
         tic = time.perf_counter()
         try:
             character, joint_map = self._build(skeleton, sample.pose)
@@ -314,18 +325,36 @@ class CharacterLoop:
         return FrameResult(time_s, sample.pose, [], 0.0, time.perf_counter() - tic, character.max_penetration(), True)
 
     def _build(self, skeleton: Skeleton, pose: SkeletonPose) -> tuple[DressedCharacter, dict[str, str]]:
-        rest = offsets_pose(pose)
         prefix = self.frame_prefix
         bare = Skeleton(tuple(n[len(prefix):] if n.startswith(prefix) else n for n in skeleton.names),
                         skeleton.parents)
         if self.joint_map_file:
             bare_map = load_joint_map(self.joint_map_file, bare)
         else:
-            bare_map = auto_joint_map(bare, rest.positions)
+            bare_map = auto_joint_map(bare, pose.positions)
         joint_map = {role: skeleton.names[bare.index(name)] for role, name in bare_map.items()}
         overrides = load_body_overrides(self.body_file) if self.body_file else None
-        body = fit_body(rest, joint_map, detailed="one_piece" in self.garments, overrides=overrides)
+        body = fit_body(canonical_pose(pose, joint_map), joint_map, detailed="one_piece" in self.garments,
+                        overrides=overrides)
+        if body.estimated:
+            self._log("warning", "estimated", f"body measurement(s) {', '.join(body.estimated)} were out of human "
+                      "range for this skeleton and were estimated from its height; override them with body_file")
         return DressedCharacter(body, self.garments, self.params, self.resolution), joint_map
+
+    def _bones_settled(self, skeleton: Skeleton, time_s: float, pose: SkeletonPose) -> str:
+        """Empty if the bones seen at ``time_s`` are those of a moment earlier, else why not: the canonical
+        pose is built from them, so a skeleton still being scaled or re-rigged is not fitted yet."""
+        earlier = self.buffer.sample(time_s - BONE_CHECK_S, skeleton)
+        if earlier.pose is None:
+            return ""
+        now_t, before_t = local_transforms(pose)[0][1:], local_transforms(earlier.pose)[0][1:]
+        lengths, before = np.linalg.norm(now_t, axis=1), np.linalg.norm(before_t, axis=1)
+        change = np.abs(lengths - before)
+        worst = int(np.argmax(change)) if len(change) else 0
+        if len(change) and change[worst] > BONE_TOLERANCE_M + BONE_TOLERANCE * before[worst]:
+            return (f"bone {skeleton.names[worst + 1]!r} is {lengths[worst]:.4f} m long now and "
+                    f"{before[worst]:.4f} m {BONE_CHECK_S:g} s earlier")
+        return ""
 
     def _log(self, level: str, key: str, message: str) -> None:
         if self.logger is None or not self.throttle.ready(key):

@@ -36,7 +36,8 @@ PARAMETERS: dict[str, tuple] = {
     "gait": ("walk", f"procedural character's gait, one of {', '.join(GAITS)} (ignored with bvh)", True, None),
     "loop": (True, "restart the clip after its last frame; false: hold the last frame", True, None),
     "speed": (1.0, "playback speed factor (2 or 3 to stress the solver)", False, (0.05, 10.0)),
-    "skip_first_frame": (False, "drop the clip's first frame (CMU clips start with a T-pose)", True, None),
+    "keep_first_frame": (False, "play the clip's frame 0 even when it is a reference pose (a T-pose the motion "
+                         "jumps away from), which is dropped by default", True, None),
     "rate_hz": (120.0, "publishing rate, Hz", False, (1.0, 1000.0)),
     "frame_prefix": ("", "prepended to every joint frame name (e.g. 'alice/'), not to fixed_frame", True, None),
     "fixed_frame": ("world", "frame the root joint is published under", True, None),
@@ -80,7 +81,7 @@ class SkeletonPlayer(Node):
                 raise ValueError(f"{NODE_NAME}: parameter {name!r}: {reason}")
         try:
             self.source: MotionSource = (
-                bvh_source(values["bvh"], loop=values["loop"], skip_first_frame=values["skip_first_frame"])
+                bvh_source(values["bvh"], loop=values["loop"], keep_first_frame=values["keep_first_frame"])
                 if values["bvh"] else procedural_source(values["gait"]))
         except (ValueError, OSError) as error:
             self.destroy_node()
@@ -96,6 +97,9 @@ class SkeletonPlayer(Node):
         self.get_logger().info(
             f"playing {self.source.name} ({len(self.source.skeleton.names)} joints) on /tf at "
             f"{values['rate_hz']:g} Hz, speed {self.speed:g}x, root under {values['fixed_frame']!r}")
+        if self.source.dropped_reference_frame:
+            self.get_logger().info(f"{self.source.name}: frame 0 is a reference pose the motion jumps away from; "
+                                   "it is not played (parameter keep_first_frame to play it)")
 
     def _transforms_template(self, prefix: str, fixed_frame: str) -> TFMessage:
         """One TransformStamped per joint, frame names filled in; ticks only write stamps and poses."""
