@@ -1,6 +1,7 @@
 # Two commands for a newcomer (see README):
 #   make demo   set up the venv (first time) and run the dressed, walking character
 #   make test   set up the venv (first time) and run the test suite
+#   make evaluate   do the garments stay on real motion: every shared mocap clip (issue 11's table)
 PYTHON ?= python3.11
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
@@ -8,8 +9,10 @@ STAMP  := $(VENV)/.installed
 DURATION ?= 20
 BVH ?=
 GARMENTS ?=
+MOCAP ?= ../shared/mocap
+JOBS ?= 2
 
-.PHONY: venv demo test bench clean
+.PHONY: venv demo test bench evaluate clean
 
 venv: $(STAMP)
 
@@ -33,6 +36,10 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	for b in table1 scale publish drape; do $(PY) bench/$$b.py || exit 1; done
+
+# Every clip x garment x 1, 2, 3x playback x 60, 30 fps; fails (exit 1) while a run misses a target.
+evaluate: $(STAMP)
+	$(VENV)/bin/garment-sim evaluate $(MOCAP)/*.bvh --garments all --speeds 1,2,3 --fps 60,30 --jobs $(JOBS)
 
 clean:
 	rm -rf $(VENV) out build *.egg-info

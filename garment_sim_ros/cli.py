@@ -14,6 +14,7 @@ import sys
 COMMANDS = {
     "garments": "garment_sim_ros.commands.garments",
     "simulate": "garment_sim_ros.commands.simulate",
+    "evaluate": "garment_sim_ros.commands.evaluate",
     "fig5": "garment_sim_ros.commands.fig5",
     "fig6": "garment_sim_ros.commands.fig6",
     "skeleton": "garment_sim_ros.commands.skeleton",
@@ -28,12 +29,13 @@ COMMANDS = {
 # One-line help without importing the modules (some import rclpy or rerun).
 SUMMARIES = {
     "garments": "list the garment templates at a resolution (mass points, edges, springs, triangles)",
-    "simulate": "headless run of garments on the procedural walking character, per-frame figures",
+    "simulate": "headless run of garments on the walking character or a BVH clip, per-frame figures, --export .npz",
+    "evaluate": "do the garments stay on real motion: BVH clips x garments x speeds x frame rates, pass/fail",
     "fig5": "memo Fig. 5: error of the simplified dynamic collision detection",
     "fig6": "memo Fig. 6: dynamic vs static collision handling speed at equal error",
     "skeleton": "read a BVH clip: detected joint map, fitted volumes, clip info",
     "demo": "run the node with the walking character, write out/demo.rrd, print a summary",
-    "snapshot": "render PNG pictures of a dressed character",
+    "snapshot": "render PNG pictures of a dressed character, its volumes or its canonical pose",
     "table1": "memo Table 1 benchmark: per-stage time per frame for the four garments",
     "scale": "cost per frame against resolution (500 to 50 000 mass points)",
     "publish": "MarkerArray publishing cost: numpy CDR path against rclpy Point objects",

@@ -8,14 +8,20 @@ This is what the node, the command line and the benchmarks drive. Give it skelet
     reports = character.step(pose, motion, t)    # one frame per call
 
 Root motion (``body.pose_buffer.RootMotion``) is the pelvis position, heading and their rates
-(memo §4: v0, a0); the node gets it from the pose buffer, and ``motion_from_poses`` estimates it
-from a pose function by central differences, for motion sources that can be sampled at any time
-(BVH clips, the procedural character).
+(memo §4: v0, a0); the node gets it from the pose buffer, and ``MotionSource.motion`` estimates it
+by finite differences for motion sources that can be sampled at any time (BVH clips, the
+procedural character).
+
+Dressing goes through the canonical standing pose (``body.canonical``), on which the body was
+fitted and the garments cut, so the garments start clear of every volume by construction: every
+joint's rotation relative to its parent turns from the canonical pose's to the target pose's
+(slerp), the skeleton is composed down the tree with its own bones, and the cloth follows.
 """
 
 from __future__ import annotations
 
-from typing import Callable, Sequence
+from functools import cached_property
+from typing import Sequence
 
 import numpy as np
 
@@ -26,21 +32,10 @@ from .cloth.garments import build_garment
 from .cloth.model import build_cloth_model
 from .cloth.solver import FrameInput, FrameReport, GarmentSolver
 from .params import SolverParams
-from .transforms import compose, inverse, quat_slerp, yaw_quat
-
-
-def motion_from_poses(pose_at: Callable[[float], SkeletonPose], joint_map, t: float,
-                      window: float = 1.0 / 60.0) -> RootMotion:
-    """Root motion at ``t`` by central differences over ``t - window, t, t + window``."""
-    samples = [root_frame(pose_at(t + k * window), joint_map) for k in (-1, 0, 1)]
-    p = np.array([s[0] for s in samples])
-    yaw = np.unwrap([s[1] for s in samples])
-    return RootMotion(
-        status=SampleStatus.OK, dt=window, samples=3, position=p[1], yaw=float(samples[1][1]),
-        velocity=(p[2] - p[0]) / (2 * window), acceleration=(p[2] - 2 * p[1] + p[0]) / window**2,
-        yaw_rate=float((yaw[2] - yaw[0]) / (2 * window)),
-        yaw_acceleration=float((yaw[2] - 2 * yaw[1] + yaw[0]) / window**2),
-    )
+from .quality import GarmentMeter, free_point_depth
+from .body.canonical import local_transforms
+from .body.skeleton import forward_kinematics
+from .transforms import compose, inverse, quat_conjugate, quat_multiply, quat_rotate, quat_slerp, yaw_quat
 
 
 class DressedCharacter:
@@ -98,17 +93,17 @@ class DressedCharacter:
 
     def _put_on(self, solvers: Sequence[GarmentSolver], pose: SkeletonPose, time_s: float,
                 settle_s: float, frame_s: float, hold_frames: int = 60) -> None:
-        rest = self.body.rest_pose
-        rest_root = root_frame(rest, self.joint_map)
         root_position, root_yaw = root_frame(pose, self.joint_map)
-        rest_local = compose(*inverse(rest_root[0], yaw_quat(rest_root[1])), *self._frame_poses(rest, self.frames))
-        pose_local = compose(*inverse(root_position, yaw_quat(root_yaw)), *self._frame_poses(pose, self.frames))
+        rest_t, rest_q = local_transforms(_in_root_frame(self.body.rest_pose, self.joint_map))
+        pose_t, pose_q = local_transforms(_in_root_frame(pose, self.joint_map))
         to_world = (root_position, yaw_quat(root_yaw))
+        skeleton = pose.skeleton
 
         def blended(weight: float):
-            p = rest_local[0] + weight * (pose_local[0] - rest_local[0])
-            q = quat_slerp(rest_local[1], pose_local[1], np.full(len(self.frames), weight))
-            return compose(to_world[0], to_world[1], p, q)
+            q = quat_slerp(rest_q, pose_q, np.full(len(rest_q), weight))
+            # the bones are the skeleton's own (the target's, the same up to noise); only the root moves
+            local = forward_kinematics(skeleton, rest_t + weight * (pose_t - rest_t), q)
+            return compose(to_world[0], to_world[1], *self._frame_poses(local, self.frames))
 
         steps = max(1, int(round(settle_s / frame_s)))
         start = time_s - (steps + hold_frames) * frame_s
@@ -119,7 +114,7 @@ class DressedCharacter:
         still = np.zeros(3)
         # Blend, then hold the pose so the garments come to rest on it.
         t = start
-        previous = blended(0.0)
+        previous = (fp, fq)
         for k in range(steps + hold_frames):
             current = blended(min(1.0, (k + 1) / steps))
             for solver, sel in zip(solvers, selections):
@@ -153,7 +148,20 @@ class DressedCharacter:
         if refitted:
             self._put_on(refitted, pose, time_s, settle_s=0.25, frame_s=1.0 / 60.0, hold_frames=15)
         self._previous = (pose, motion, time_s)
+        self.measure(reports, pose)
         return reports
+
+    @cached_property
+    def _meters(self) -> list[GarmentMeter]:
+        return [GarmentMeter(s.model, self.body.volumes, self.joint_map) for s in self.solvers]
+
+    def measure(self, reports: Sequence[FrameReport], pose: SkeletonPose) -> None:
+        """Fill the reports' quality figures (``garment_sim_ros.quality``: depth, limb bones through the
+        cloth, trouser legs off, stretch) for the garments as they are now, at ``pose``."""
+        volumes = self.body.volumes
+        volume_poses = volumes.world_poses(*self._frame_poses(pose, volumes.frames))
+        for meter, solver, report, positions in zip(self._meters, self.solvers, reports, self.world_positions()):
+            meter.measure(report, solver, positions, pose, *volume_poses)
 
     @property
     def root(self) -> RootMotion | None:
@@ -170,10 +178,12 @@ class DressedCharacter:
 
         Attached points are left out: they ride on their segment wherever it puts them (a strapless
         dress's neckline runs under the arms' volumes)."""
-        depth = 0.0
-        for solver in self.solvers:
-            if solver.collider is not None:
-                free = solver.constants.inv_mass > 0.0
-                depths = solver.collider.penetration_depths(solver.state.positions)[free]
-                depth = max(depth, float(np.max(depths, initial=0.0)))
-        return depth
+        return max((free_point_depth(solver) for solver in self.solvers), default=0.0)
+
+
+def _in_root_frame(pose: SkeletonPose, joint_map) -> SkeletonPose:
+    """``pose`` seen from its root frame (pelvis at the origin, heading along +x)."""
+    position, yaw = root_frame(pose, joint_map)
+    turn = quat_conjugate(yaw_quat(yaw))
+    return SkeletonPose(pose.skeleton, quat_rotate(turn, pose.positions - position),
+                        quat_multiply(turn, pose.rotations))

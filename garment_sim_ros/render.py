@@ -18,7 +18,7 @@ import numpy as np
 from numba import njit
 
 from .collision.volumes import CAPSULE, ELLIPSOID, SPHERE, VolumeSet
-from .rerun_log import skeleton_segments
+from .rerun_log import skeleton_segments, volume_poses
 from .shading import BODY_RGB, DEFAULT_LIGHT_DIR, SKELETON_RGB, shade
 from .transforms import quat_rotate
 
@@ -253,8 +253,7 @@ def local_volume_mesh(kind: int, radii, cut=(-np.inf, np.inf), rings: int = 14, 
 
 def volume_meshes(volumes: VolumeSet, pose) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Every volume's surface in the world at ``pose``: ``(positions, normals, triangles)`` each."""
-    index = [pose.skeleton.index(frame) for frame in volumes.frames]
-    centers, rotations = volumes.world_poses(pose.positions[index], pose.rotations[index])
+    centers, rotations = volume_poses(volumes, pose)
     meshes = []
     for i in range(len(volumes)):
         positions, normals, triangles = local_volume_mesh(int(volumes.kinds[i]), volumes.radii[i], volumes.cuts[i])
@@ -263,36 +262,54 @@ def volume_meshes(volumes: VolumeSet, pose) -> list[tuple[np.ndarray, np.ndarray
     return meshes
 
 
-def character_camera(pose, view: str, width: int, height: int) -> Camera:
-    """The camera of ``render_character``: a 0.9 m wide box around the root joint (the pelvis), from
-    the floor to 0.15 m above the highest joint, framed from ``view``."""
-    root = pose.positions[0]
+def floor_height(pose, joint_map) -> float:
+    """The lowest joint of either leg (upper leg, its descendants: foot, toes, end sites), m. Not the
+    lowest joint overall: some rigs keep a static root on the ground however high the character jumps."""
+    parents = pose.skeleton.parents
+    legs = {pose.skeleton.index(joint_map[role]) for role in ("left_upper_leg", "right_upper_leg")}
+    for j, parent in enumerate(parents):  # parents come before children
+        if parent in legs:
+            legs.add(j)
+    return float(pose.positions[sorted(legs), 2].min())
+
+
+def character_camera(pose, joint_map, view: str, width: int, height: int) -> Camera:
+    """The camera of ``render_character``: a box around the character, centred on its pelvis (the
+    joint map's ``pelvis``, not joint 0: some rigs' joint 0 is a static root) horizontally, at least
+    0.9 m wide and wide enough for every joint, from ``floor_height`` to 0.15 m above the highest
+    joint, framed from ``view``. The pelvis lies on the picture's vertical centre line."""
+    pelvis = pose.positions[pose.skeleton.index(joint_map["pelvis"])]
+    reach = float(np.max(np.hypot(*(pose.positions[:, :2] - pelvis[:2]).T)))
+    half = max(0.45, reach + 0.05)
     top = float(pose.positions[:, 2].max()) + 0.15
-    low, high = np.array([root[0] - 0.45, root[1] - 0.45, 0.0]), np.array([root[0] + 0.45, root[1] + 0.45, top])
+    low = np.array([pelvis[0] - half, pelvis[1] - half, floor_height(pose, joint_map)])
+    high = np.array([pelvis[0] + half, pelvis[1] + half, top])
     return framing_camera(view, low, high, width, height)
 
 
-def render_character(pose, volumes: VolumeSet, garments=(), view: str = "three-quarter", width: int = 360,
+def render_character(pose, volumes: VolumeSet, joint_map, garments=(), view: str = "three-quarter", width: int = 360,
                      height: int = 540, volume_alpha: float = 1.0, skeleton: bool = False,
                      body_inset_m: float = 0.0, light_dir=DEFAULT_LIGHT_DIR, supersample: int = 2) -> np.ndarray:
     """A picture (H, W, 3) uint8 of a posed character: a floor with the body's shadow, the body
     volumes (``volume_alpha`` < 1: see-through, over the skeleton), the ``garments``
     (``(name, positions, normals, triangles, colors)``, as ``rerun_log.garment_meshes`` gives them)
-    and, with ``skeleton``, the bones, seen through ``character_camera``.
+    and, with ``skeleton``, the bones, seen through ``character_camera`` (``joint_map`` names the
+    pelvis and the legs), the floor at ``floor_height``.
 
     ``body_inset_m`` draws the volumes that much inside their collision surface: the solver keeps
     garment *vertices* out of the volumes (memo §6), so a flat triangle between two vertices resting
     on a curved volume dips into it by its chord's sagitta (~2 mm for 4 cm edges on a 12 cm radius),
     and an exact-surface body would show through there."""
-    canvas = Canvas(character_camera(pose, view, width, height), supersample=supersample)
-    root = pose.positions[0]
-    floor = np.array([[-1.5, -1.5, 0.0], [1.5, -1.5, 0.0], [1.5, 1.5, 0.0], [-1.5, 1.5, 0.0]]) + [root[0], root[1], 0.0]
+    canvas = Canvas(character_camera(pose, joint_map, view, width, height), supersample=supersample)
+    pelvis = pose.positions[pose.skeleton.index(joint_map["pelvis"])]
+    ground = floor_height(pose, joint_map)
+    floor = np.array([[-1.5, -1.5, 0.0], [1.5, -1.5, 0.0], [1.5, 1.5, 0.0], [-1.5, 1.5, 0.0]]) + [*pelvis[:2], ground]
     canvas.mesh(floor, np.array([[0, 1, 2], [0, 2, 3]]), np.full((4, 3), FLOOR_GRAY))
     meshes = volume_meshes(volumes, pose)
     light = np.asarray(light_dir, float) / np.linalg.norm(light_dir)
     for positions, _, triangles in meshes:  # shadows: volumes projected along the light onto the floor
-        flat = positions - np.maximum(positions[:, 2:3], 0.0) / light[2] * light
-        flat[:, 2] = SHADOW_LIFT_M
+        flat = positions - np.maximum(positions[:, 2:3] - ground, 0.0) / light[2] * light
+        flat[:, 2] = ground + SHADOW_LIFT_M
         canvas.mesh(flat, triangles, np.full((len(flat), 3), SHADOW_GRAY))
     if skeleton:
         canvas.segments(skeleton_segments(pose), SKELETON_RGB, width_px=2.5)

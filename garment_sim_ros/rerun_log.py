@@ -9,9 +9,11 @@ one process (two characters, a test beside a node) write separate recordings. En
 - ``world/body/volumes``: ``Ellipsoids3D`` (see ``volume_ellipsoids`` for the shapes shown);
 - ``world/body/skeleton``: ``LineStrips3D``, one two-point strip per bone;
 - ``timings/<stage>``: ``Scalars``, milliseconds;
+- ``quality/<garment>/<figure>``: ``Scalars``, how well each garment stays on (``quality.report_scalars``:
+  ``depth_mm``, ``bones_through``, ``legs_off``, stretch p99 and max, ``guard``);
 
 all on the ``sim_time`` timeline (seconds of the node's clock, a duration), with a blueprint: the 3D
-view beside the timing plots.
+view beside the timing and quality plots.
 
 ``frame_payload(character, pose)`` builds ``log_frame``'s arguments from a ``DressedCharacter``
 and a ``SkeletonPose``; the node, the demo and ``garment-sim snapshot`` share it.
@@ -103,12 +105,14 @@ class RerunLogger:
         return self._stream is not None
 
     def log_frame(self, time_s: float, garments: Sequence[tuple] = (), volumes: tuple | None = None,
-                  skeleton_segments: np.ndarray | None = None, timings_ms: Mapping[str, float] | None = None) -> None:
+                  skeleton_segments: np.ndarray | None = None, timings_ms: Mapping[str, float] | None = None,
+                  quality: Mapping[str, Mapping[str, float]] | None = None) -> None:
         """Log one frame at ``time_s`` (s, the node's clock) on the ``sim_time`` timeline.
 
         ``garments``: ``(name, positions (N,3), normals (N,3), triangles (T,3) int, colors (N,3) uint8)``
         each; ``volumes``: ``(centers (V,3), rotations (V,4) xyzw, half_sizes (V,3))``;
-        ``skeleton_segments``: ``(S, 2, 3)``; ``timings_ms``: ``{stage: milliseconds}``.
+        ``skeleton_segments``: ``(S, 2, 3)``; ``timings_ms``: ``{stage: milliseconds}``;
+        ``quality``: ``{garment: {figure: value}}`` (``quality.report_scalars``).
         """
         if self._stream is None:
             return
@@ -121,6 +125,8 @@ class RerunLogger:
         if skeleton_segments is not None:
             skeleton_segments = _check_array("skeleton_segments", skeleton_segments, (None, 2, 3), float)
         timings = _check_timings(timings_ms or {})
+        figures = {_check_name("garment name", name): _check_timings(values, "quality figure", "")
+                   for name, values in (quality or {}).items()}
 
         stream.set_time(TIMELINE, duration=float(time_s))
         for name, positions, normals, triangles, colors in checked:
@@ -140,6 +146,9 @@ class RerunLogger:
                                                               colors=[SKELETON_RGB]))
         for stage, value in timings.items():
             stream.log(f"timings/{stage}", rr.Scalars(value))
+        for name, values in figures.items():
+            for figure, value in values.items():
+                stream.log(f"quality/{name}/{figure}", rr.Scalars(value))
 
     def close(self) -> None:
         """Flush everything logged and end the stream (a saved file is complete after this)."""
@@ -161,7 +170,10 @@ def _blueprint():
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Spatial3DView(origin="world", name="dressed character"),
-            rrb.TimeSeriesView(origin="timings", name="stage timings [ms]"),
+            rrb.Vertical(
+                rrb.TimeSeriesView(origin="timings", name="stage timings [ms]"),
+                rrb.TimeSeriesView(origin="quality", name="garment quality"),
+            ),
             column_shares=[3, 2],
         ),
         collapse_panels=True,
@@ -225,15 +237,16 @@ def _check_volumes(volumes) -> tuple:
     return centers, rotations, half_sizes
 
 
-def _check_timings(timings: Mapping[str, float]) -> dict[str, float]:
+def _check_timings(timings: Mapping[str, float], label: str = "timing", unit: str = " of ms") -> dict[str, float]:
+    """Finite scalars by name: ``timings_ms`` (stage -> ms) or one garment's quality figures."""
     if not isinstance(timings, Mapping):
-        raise ValueError(f"log_frame: timings_ms must be a mapping stage -> milliseconds, got {type(timings).__name__}")
+        raise ValueError(f"log_frame: {label}s must be a mapping name -> number, got {type(timings).__name__}")
     checked = {}
     for stage, value in timings.items():
-        _check_name("timing stage", stage)
+        _check_name(label, stage)
         if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) \
                 or not math.isfinite(value):
-            raise ValueError(f"log_frame: timing {stage!r} must be a finite number of ms, got {value!r}")
+            raise ValueError(f"log_frame: {label} {stage!r} must be a finite number{unit}, got {value!r}")
         checked[stage] = float(value)
     return checked
 
@@ -246,6 +259,12 @@ def skeleton_segments(pose) -> np.ndarray:
     return np.stack([pose.positions[parents[children]], pose.positions[children]], axis=1)
 
 
+def volume_poses(volumes: VolumeSet, pose) -> tuple[np.ndarray, np.ndarray]:
+    """Every volume's centre (V, 3) and rotation (V, 4) xyzw in the world at a ``SkeletonPose``."""
+    index = [pose.skeleton.index(frame) for frame in volumes.frames]
+    return volumes.world_poses(pose.positions[index], pose.rotations[index])
+
+
 def volume_ellipsoids(volumes: VolumeSet, pose) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every volume as an ellipsoid ``(centers (V,3), rotations (V,4) xyzw, half_sizes (V,3))`` in the world.
 
@@ -255,8 +274,7 @@ def volume_ellipsoids(volumes: VolumeSet, pose) -> tuple[np.ndarray, np.ndarray,
     ellipsoid with the capsule's extent on each local axis, ``(r_max, r_max, half_length + r_max)``
     (thinner than the capsule towards its ends).
     """
-    index = [pose.skeleton.index(frame) for frame in volumes.frames]
-    centers, rotations = volumes.world_poses(pose.positions[index], pose.rotations[index])
+    centers, rotations = volume_poses(volumes, pose)
     radii = volumes.radii
     half_sizes = radii.copy()
     shift = np.zeros(len(volumes))

@@ -34,13 +34,21 @@ def test_builtin_maps_name_every_role_with_frames_of_their_clip(clip):
 
 def test_auto_map_equals_the_builtin_map(clip):
     builtin = builtin_joint_map(BUILTIN_FOR_CLIP[Path(clip.path).name])
-    assert auto_joint_map(clip.skeleton, clip.rest_pose().positions) == builtin
-    assert auto_joint_map(clip.skeleton) == builtin  # names and tree alone suffice for CMU
+    # Positions only reveal zero-length bones, so any pose will do: the first frame, the last.
+    assert auto_joint_map(clip.skeleton, clip.pose(0).positions) == builtin
+    assert auto_joint_map(clip.skeleton, clip.pose(-1).positions) == builtin
+    # Names and tree alone give every role but the chest: the collars hang from Spine1 / Chest2, and
+    # only positions show that its bones have zero length (it is the neck base; the chest is below).
+    by_names = auto_joint_map(clip.skeleton)
+    clavicle_parent = clip.skeleton.names[clip.skeleton.parents[clip.skeleton.index(
+        clip.skeleton.names[clip.skeleton.parents[clip.skeleton.index(builtin["left_upper_arm"])]])]]
+    assert by_names == {**builtin, "chest": clavicle_parent}
+    assert clavicle_parent in ("Spine1", "Chest2")
 
 
 def test_cmu_segments_start_where_the_bone_really_starts(clip):
-    jm = auto_joint_map(clip.skeleton, clip.rest_pose().positions)
-    rest = clip.rest_pose()
+    rest = clip.pose(0)
+    jm = auto_joint_map(clip.skeleton, rest.positions)
     pelvis = rest.frame(jm["pelvis"])[0]
     # The thigh starts at the hip joint, ~10 cm below the pelvis, not at the zero-length LHipJoint.
     assert jm["left_upper_leg"] != "LHipJoint"
@@ -105,7 +113,7 @@ CONVENTIONS = {
                  lambda s: [L(s, "{S}UpLeg"), L(s, "{S}Leg"), L(s, "{S}Foot"), L(s, "{S}ToeBase")],
                  lambda s: [L(s, "{S}Shoulder"), L(s, "{S}Arm"), L(s, "{S}ForeArm"), L(s, "{S}Hand"),
                             L(s, "{S}HandIndex1")], prefix="mixamorig:"),
-        dict(pelvis="Hips", spine="Spine", chest="Spine1", neck="Neck", head="Head", left_upper_leg="LeftUpLeg",
+        dict(pelvis="Hips", spine="Spine", chest="Spine2", neck="Neck", head="Head", left_upper_leg="LeftUpLeg",
              left_lower_leg="LeftLeg", left_foot="LeftFoot", left_upper_arm="LeftArm", left_lower_arm="LeftForeArm",
              left_hand="LeftHand", right_upper_arm="RightArm"),
         "mixamorig:",
@@ -118,7 +126,7 @@ CONVENTIONS = {
                  root="CC_Base_BoneRoot", leg_root="CC_Base_Pelvis", arm_root="CC_Base_Spine02",
                  extras=[("CC_Base_L_UpperarmTwist01", "CC_Base_L_Upperarm"),
                          ("CC_Base_L_ForearmTwist01", "CC_Base_L_Forearm")]),
-        dict(pelvis="CC_Base_Pelvis", spine="CC_Base_Waist", chest="CC_Base_Spine01", neck="CC_Base_NeckTwist01",
+        dict(pelvis="CC_Base_Pelvis", spine="CC_Base_Waist", chest="CC_Base_Spine02", neck="CC_Base_NeckTwist01",
              head="CC_Base_Head", left_upper_leg="CC_Base_L_Thigh", left_lower_leg="CC_Base_L_Calf",
              left_foot="CC_Base_L_Foot", left_upper_arm="CC_Base_L_Upperarm", left_lower_arm="CC_Base_L_Forearm",
              left_hand="CC_Base_L_Hand", right_upper_leg="CC_Base_R_Thigh"),
@@ -137,7 +145,7 @@ CONVENTIONS = {
         humanoid("Hips", ["Spine", "Chest", "UpperChest", "Neck"], ["Head"],
                  lambda s: [L(s, "{S}UpperLeg"), L(s, "{S}LowerLeg"), L(s, "{S}Foot"), L(s, "{S}Toes")],
                  lambda s: [L(s, "{S}Shoulder"), L(s, "{S}UpperArm"), L(s, "{S}LowerArm"), L(s, "{S}Hand")]),
-        dict(pelvis="Hips", spine="Spine", chest="Chest", neck="Neck", left_upper_leg="LeftUpperLeg",
+        dict(pelvis="Hips", spine="Spine", chest="UpperChest", neck="Neck", left_upper_leg="LeftUpperLeg",
              left_lower_leg="LeftLowerLeg", left_foot="LeftFoot", left_upper_arm="LeftUpperArm",
              left_lower_arm="LeftLowerArm", left_hand="LeftHand"),
         "",
@@ -147,7 +155,7 @@ CONVENTIONS = {
                  lambda s: [f"{n}_{s[0]}" for n in ("thigh", "calf", "foot", "ball")],
                  lambda s: [f"{n}_{s[0]}" for n in ("clavicle", "upperarm", "lowerarm", "hand")], root="root",
                  extras=[("upperarm_twist_01_l", "upperarm_l"), ("calf_twist_01_l", "calf_l")]),
-        dict(pelvis="pelvis", spine="spine_01", chest="spine_02", neck="neck_01", head="head",
+        dict(pelvis="pelvis", spine="spine_01", chest="spine_03", neck="neck_01", head="head",
              left_upper_leg="thigh_l", left_lower_leg="calf_l", left_foot="foot_l", left_upper_arm="upperarm_l",
              left_lower_arm="lowerarm_l", left_hand="hand_l", right_lower_leg="calf_r"),
         "",
@@ -156,7 +164,7 @@ CONVENTIONS = {
         humanoid("pelvis", ["spine1", "spine2", "spine3", "neck"], ["head"],
                  lambda s: [f"{s}_{n}" for n in ("hip", "knee", "ankle", "foot")],
                  lambda s: [f"{s}_{n}" for n in ("collar", "shoulder", "elbow", "wrist", "hand")]),
-        dict(pelvis="pelvis", spine="spine1", chest="spine2", neck="neck", head="head", left_upper_leg="left_hip",
+        dict(pelvis="pelvis", spine="spine1", chest="spine3", neck="neck", head="head", left_upper_leg="left_hip",
              left_lower_leg="left_knee", left_foot="left_ankle", left_upper_arm="left_shoulder",
              left_lower_arm="left_elbow", left_hand="left_wrist", right_hand="right_wrist"),
         "",
@@ -199,8 +207,9 @@ def test_auto_map_recognises_convention(convention):
 
 
 def test_zero_length_joints_are_skipped_with_rest_positions():
-    # Mixamo names, but Spine1 sits where Spine does (Spine's bone has zero length): with rest positions
-    # the trunk's first point is carried by Spine1, its next by Spine2; by names alone Spine, Spine1.
+    # Mixamo names, but Spine1 sits where Spine does (Spine's bone has zero length): with positions
+    # the trunk's first point is carried by Spine1; by names alone by Spine. The chest is Spine2
+    # either way: the clavicles hang from it.
     sk, _, _ = CONVENTIONS["mixamo"]
     positions = np.zeros((len(sk.names), 3))
     heights = {"Hips": 0.0, "Spine": 0.1, "Spine1": 0.1, "Spine2": 0.25, "Neck": 0.4, "Head": 0.5,
@@ -213,7 +222,7 @@ def test_zero_length_joints_are_skipped_with_rest_positions():
         for k, name in enumerate(["Shoulder", "Arm", "ForeArm", "Hand", "HandIndex1"]):
             positions[sk.index(f"mixamorig:{side}{name}")] = (0.0, y * (0.05 + 0.2 * k), 0.3)
     by_names = auto_joint_map(sk)
-    assert (by_names["spine"], by_names["chest"]) == ("mixamorig:Spine", "mixamorig:Spine1")
+    assert (by_names["spine"], by_names["chest"]) == ("mixamorig:Spine", "mixamorig:Spine2")
     with_positions = auto_joint_map(sk, positions)
     assert (with_positions["spine"], with_positions["chest"]) == ("mixamorig:Spine1", "mixamorig:Spine2")
     assert with_positions["neck"] == "mixamorig:Neck" and with_positions["left_upper_arm"] == "mixamorig:LeftArm"

@@ -33,8 +33,8 @@ from garment_sim_ros.cloth.model import STRUCTURAL, build_cloth_model
 from garment_sim_ros.collision.collider import Collider
 from garment_sim_ros.collision.volumes import ELLIPSOID, Volume, VolumeSet
 from garment_sim_ros.commands.simulate import make_character
-from garment_sim_ros.dressing import motion_from_poses
 from garment_sim_ros.params import DEFAULT_PARAMS
+from garment_sim_ros.quality import rings_off_the_legs
 from garment_sim_ros.transforms import IDENTITY_QUAT, quat_conjugate, quat_multiply, transform_points, yaw_quat
 
 START_S = 1.0  # the fast motion's start-up ramp is over: full speed from the first frame
@@ -81,32 +81,13 @@ def edges_through_cores(solver, volumes: list[int], core: float = CORE) -> int:
     return count
 
 
-def winding_number(xy: np.ndarray) -> int:
-    """How many times the closed polygon ``xy`` (K, 2) goes round the origin."""
-    angles = np.arctan2(xy[:, 1], xy[:, 0])
-    turns = np.diff(np.append(angles, angles[0]))
-    return int(round(np.sum((turns + np.pi) % (2.0 * np.pi) - np.pi) / (2.0 * np.pi)))
-
-
-def rings_off_the_legs(solver, names: list[str]) -> int:
-    """Trouser-leg rings that go round neither their thigh's nor their shin's axis (each checked in
-    the volume's local frame, where the ring's mean height lies within the volume's cut).
-
-    The first ring of each leg is left out: it is the hip tube's bottom (half of it runs round the
-    buttock, the seam between the legs), no loop round the thigh; the seam's edges are checked by
-    ``edges_through_cores``."""
-    x = solver.state.positions
-    off = 0
-    for side in ("left", "right"):
-        for ring in solver.model.rings[f"{side}_leg"][1:]:
-            around = False
-            for part in ("upper", "lower"):
-                v = names.index(f"{side}_{part}_leg")
-                local = local_points(solver, v, x[ring])
-                low, high = solver.volumes.cuts[v]
-                around |= bool(low <= local[:, 2].mean() <= high and winding_number(local[:, :2]) != 0)
-            off += not around
-    return off
+def leg_rings_off(solver) -> int:
+    """Trouser-leg rings that go round neither their thigh's nor their shin's axis
+    (``quality.LimbTubes``), against the volumes' poses at the last substep's end; the seam's edges
+    are checked by ``edges_through_cores``."""
+    collider = solver.collider
+    return int(rings_off_the_legs(solver.model, solver.volumes, solver.state.positions,
+                                  collider.substep_end_positions, collider.substep_end_rotations).sum())
 
 
 def points_inside_leg_radius(solver, names: list[str], tolerance: float = TOLERANCE_M) -> int:
@@ -148,7 +129,7 @@ def simulate(garment: str, frame_s: float, mode: str = "adaptive", max_substeps:
     if max_substeps is not None:
         params = params.replace(max_substeps=max_substeps)
     character = make_character(source, [garment], params, 1.0)
-    character.dress(source.pose(START_S), START_S, motion_from_poses(source.pose, source.joint_map, START_S))
+    character.dress(source.pose(START_S), START_S, source.motion(START_S))
     solver = character.solvers[0]
     names = character.body.volumes.names()
     every_volume = list(range(len(names)))
@@ -157,13 +138,13 @@ def simulate(garment: str, frame_s: float, mode: str = "adaptive", max_substeps:
     hits = recoveries = 0
     for k in range(frames):
         t = START_S + (k + 1) * frame_s
-        report = character.step(source.pose(t), motion_from_poses(source.pose, source.joint_map, t), t)[0]
+        report = character.step(source.pose(t), source.motion(t), t)[0]
         assert np.all(np.isfinite(solver.state.positions)), f"{garment}: non-finite positions at t={t:.3f} s"
         hits += report.static_hits + report.dynamic_hits
         recoveries += bool(getattr(report, "recovery", ""))
         record["pen"][k] = character.max_penetration()
         record["edges"][k] = edges_through_cores(solver, every_volume)
-        record["rings"][k] = rings_off_the_legs(solver, names) if garment == "pants" else 0
+        record["rings"][k] = leg_rings_off(solver) if garment == "pants" else 0
         record["inside"][k] = points_inside_leg_radius(solver, names) if "skirt" in garment else 0
         record["stretch"][k] = report.max_stretch
     return Run(record["pen"], record["edges"], record["rings"], record["inside"], record["stretch"], hits, recoveries,
@@ -179,7 +160,7 @@ def test_the_motion_is_the_fast_one_the_memo_claims_for():
     source = procedural_source("fast")
     character = ProceduralCharacter(fast_motion())
     times = START_S + np.arange(0.0, DURATION_S, 0.01)
-    speeds = [np.linalg.norm(motion_from_poses(source.pose, source.joint_map, t).velocity) for t in times[::5]]
+    speeds = [np.linalg.norm(source.motion(t).velocity) for t in times[::5]]
     assert min(speeds) == pytest.approx(3.0, rel=0.02)
 
     def peak_deg_s(joint: str) -> float:

@@ -1,7 +1,9 @@
 """The offscreen rasteriser: triangles land where projected, the z-buffer keeps the nearer surface,
-and a snapshot of the standard scene shows the character where its joints project."""
+and a snapshot shows the character where its joints project, centred on its pelvis wherever it is."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,6 +12,7 @@ from garment_sim_ros.collision.volumes import CAPSULE, ELLIPSOID, SPHERE
 from garment_sim_ros.render import Camera, framing_camera, local_volume_mesh, rasterize_triangles
 
 WHITE = 255.0
+CC_CLIP = Path(__file__).parent / "data" / "cc_cmu_07_01_walk.bvh"  # Character Creator rig
 
 
 def blank(height=64, width=64):
@@ -98,13 +101,83 @@ def test_snapshot_of_the_standard_scene_shows_the_character(tmp_path):
     from garment_sim_ros.render import character_camera
 
     path = snapshot(tmp_path, None, time_s=1.0, view="front", size=(120, 180))
+    assert path.name == "volumes_walk.png"
     picture = np.asarray(Image.open(path).convert("RGB")).astype(int)
     assert picture.shape == (180, 120, 3)
-    pose = procedural_source("walk").pose(1.0)
-    camera = character_camera(pose, "front", 120, 180)  # the snapshot's camera
+    source = procedural_source("walk")
+    pose = source.pose(1.0)
+    camera = character_camera(pose, source.joint_map, "front", 120, 180)  # the snapshot's camera
     floor = picture[175, 3]
     for joint in ("chest", "pelvis", "left_knee", "head"):
         x, y, _ = camera.project(pose.frame(joint)[0][None])[0]
         pixel = picture[int(y), int(x)]
         assert np.abs(pixel - 255).max() > 20 and np.abs(pixel - floor).max() > 10, f"{joint} not drawn at {x}, {y}"
     assert np.all(picture[30, :8] == 255) and np.all(picture[30, -8:] == 255)  # sky beside the head
+
+
+def body_pixels(picture: np.ndarray) -> np.ndarray:
+    """Where the body volumes are drawn: the only coloured pixels (sky, floor, shadow and bones are grey)."""
+    return np.ptp(picture, axis=2) > 15
+
+
+def test_the_picture_follows_the_character_wherever_it_stands():
+    # the camera is on the pelvis and the floor at the lowest foot: moved 40 m away and 3 m up,
+    # the character is drawn as it is at the origin
+    from garment_sim_ros.body.fitting import fit_body
+    from garment_sim_ros.body.skeleton import SkeletonPose
+    from garment_sim_ros.body.sources import procedural_source
+    from garment_sim_ros.render import render_character
+
+    source = procedural_source("walk")
+    body = fit_body(source.rest_pose, source.joint_map)
+    pose = source.pose(0.7)
+    moved = SkeletonPose(pose.skeleton, pose.positions + [30.0, -25.0, 3.0], pose.rotations)
+    here, there = (render_character(p, body.volumes, source.joint_map, width=90, height=135, skeleton=True)
+                   for p in (pose, moved))
+    assert body_pixels(here).sum() > 1000
+    assert np.mean(np.abs(here.astype(int) - there) > 8) < 0.002
+
+
+def test_snapshot_of_a_character_creator_clip_centres_the_pelvis(tmp_path):
+    # joint 0 of this rig is a static root on the floor; the character walks 3 m from the origin
+    from PIL import Image
+
+    from garment_sim_ros.body.sources import bvh_source
+    from garment_sim_ros.commands.snapshot import snapshot
+    from garment_sim_ros.render import character_camera
+
+    width, height = 150, 225
+    path = snapshot(tmp_path, None, time_s=2.0, view="three-quarter", size=(width, height), bvh=str(CC_CLIP))
+    assert path.name == "volumes_cc_cmu_07_01_walk.png"
+    body = body_pixels(np.asarray(Image.open(path).convert("RGB")).astype(int))
+    rows, cols = np.nonzero(body)
+    assert len(rows) > 0.03 * width * height
+    # inside the picture: clear of the sides and the top (the label's band included)
+    assert cols.min() > 4 and cols.max() < width - 5 and rows.min() > 0.05 * height and rows.max() < height - 5
+    # the pelvis on the centre line: the hips' row of body pixels is centred, the figure spans most of the height
+    pelvis_row = rows.min() + int(0.45 * (rows.max() - rows.min()))
+    hips = np.nonzero(body[pelvis_row])[0]
+    assert abs(0.5 * (hips.min() + hips.max()) - 0.5 * width) < 0.08 * width
+    assert rows.max() - rows.min() > 0.6 * height
+    source = bvh_source(str(CC_CLIP), loop=False)
+    pose = source.pose(2.0)
+    pelvis = pose.frame(source.joint_map["pelvis"])[0]
+    assert pelvis[0] > 2.5  # far from the origin
+    x, y, _ = character_camera(pose, source.joint_map, "three-quarter", width, height).project(pelvis[None])[0]
+    assert abs(x - 0.5 * width) < 0.5 and abs(y - 0.5 * height) < 0.15 * height and body[int(y), int(x)]
+
+
+def test_canonical_view_shows_body_and_skeleton(tmp_path):
+    from PIL import Image
+
+    from garment_sim_ros.commands.snapshot import snapshot
+
+    path = snapshot(tmp_path, None, time_s=0.0, view="front", size=(120, 180), bvh=str(CC_CLIP), canonical=True)
+    assert path.name == "canonical_cc_cmu_07_01_walk.png"
+    picture = np.asarray(Image.open(path).convert("RGB")).astype(int)
+    body = body_pixels(picture)
+    rows, cols = np.nonzero(body)
+    assert len(rows) > 0.03 * body.size
+    assert cols.min() > 2 and cols.max() < 117 and rows.min() > 9 and rows.max() < 177
+    dark = picture.max(axis=2) < 90  # the bones (the label is above the figure)
+    assert dark[rows.min():].sum() > 20

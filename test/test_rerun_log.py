@@ -146,3 +146,15 @@ def test_volume_ellipsoids_follow_their_frames_and_kinds():
     assert np.allclose(centers[1], [1.0, 2.0 - 0.3, 3.5])
     assert np.allclose(centers[0], [1.0, 2.0, 3.0]) and np.allclose(rotations[1], turn)
     assert np.allclose(skeleton_segments(pose), [[[1.0, 2.0, 3.0], [1.0, 2.0, 3.5]]])
+
+
+def test_quality_figures_are_logged_as_scalars_per_garment(tmp_path):
+    path = tmp_path / "quality.rrd"
+    with RerunLogger("save", path=path) as logger:
+        for t, bones in ((0.5, 0), (0.75, 2)):
+            logger.log_frame(t, quality={"pants": {"bones_through": bones, "structural_stretch_max": 1.25}})
+        with pytest.raises(ValueError, match="quality figure 'depth_mm'"):
+            logger.log_frame(1.0, quality={"pants": {"depth_mm": float("nan")}})
+    rows = read_back(path)
+    assert [v for _, v in rows[("/quality/pants/bones_through", "Scalars:scalars", False)]] == [[0.0], [2.0]]
+    assert [v for _, v in rows[("/quality/pants/structural_stretch_max", "Scalars:scalars", False)]] == [[1.25]] * 2

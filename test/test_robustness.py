@@ -30,7 +30,7 @@ from visualization_msgs.msg import Marker
 from garment_sim_ros.body.pose_buffer import PoseBuffer, SampleStatus
 from garment_sim_ros.cloth.solver import GarmentSolver
 from garment_sim_ros.params import DEFAULT_PARAMS
-from garment_sim_ros.ros.character_loop import CLOCK_JUMP_BACK_S, CharacterLoop, Status
+from garment_sim_ros.ros.character_loop import BONE_CHECK_S, CLOCK_JUMP_BACK_S, CharacterLoop, Status
 from garment_sim_ros.ros.tf_input import seconds_to_stamp
 
 FRAME = 1.0 / 60.0
@@ -244,7 +244,7 @@ def test_the_clock_jumping_back_forgets_the_old_stamps_and_dresses_again():
     feed(loop.buffer, t)
     assert loop.buffer.rejected["too_old"] > 0  # the new stamps are far behind the held ones
     assert loop.frame(t) is None and loop.counts["clock_jumped_back"] == 1
-    t = step_until_running(loop, t + FRAME, 5)
+    t = step_until_running(loop, t + FRAME, 5 + round(BONE_CHECK_S / FRAME))
     assert loop.status == Status.RUNNING, loop.detail
     for _ in range(10):
         feed(loop.buffer, t)
@@ -262,7 +262,7 @@ def test_a_teleport_dresses_the_garments_again_at_the_new_pose_without_whipping(
     feed(loop.buffer, t, offset=jump)
     loop.frame(t)
     assert loop.counts["teleported"] == 1
-    t = step_until_running(loop, t + FRAME, 5, offset=jump)
+    t = step_until_running(loop, t + FRAME, 5 + round(BONE_CHECK_S / FRAME), offset=jump)
     assert loop.status == Status.RUNNING, loop.detail
     worst_speed = 0.0
     for _ in range(30):

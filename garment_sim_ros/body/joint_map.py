@@ -10,16 +10,25 @@ How the automatic mapper decides:
 
 - Names give each joint a side (``Left``/``L``/``l``/``_L``... prefix or suffix) and a body
   part from synonyms (``UpLeg``/``UpperLeg``/``Thigh``/sided ``Hip`` = upper leg,
-  ``Foot``/``Ankle`` = foot...).
+  ``Foot``/``Ankle`` = foot...). Finger, toe and face bones are no role.
 - Limbs are read from the tree, upwards from the hand (wrist) or foot (ankle): its parent is the
   lower arm (knee), the next the upper arm (hip). Twist/roll helpers and joints at the same
-  rest position (zero-length bones) are skipped. So ``LeftShoulder`` is the upper arm in the
-  3dsMax/SMPL conventions and the clavicle in Mixamo's without a rule per convention, and
-  CMU's ``LHipJoint`` (at the pelvis) is never taken for the thigh.
-- The pelvis is where both legs meet; the trunk is the chain from there to the head. Joints at
-  one rest position collapse to the deepest (the one whose bone leaves that point). The first
-  neck-named point is the neck; below it, the first point is the spine (lower back) and the
-  middle one the chest.
+  position (zero-length bones) are skipped, and a bone split into numbered segments (Rigify's
+  ``DEF-thigh.L`` -> ``DEF-thigh.L.001``) starts at its first. So ``LeftShoulder`` is the upper
+  arm in the 3dsMax/SMPL conventions and the clavicle in Mixamo's without a rule per convention,
+  and CMU's ``LHipJoint`` (at the pelvis) is never taken for the thigh.
+- The pelvis is where both legs meet; the trunk is the chain from there to the head (the head
+  joint, or for a rig that names none, such as Rigify's ``DEF-spine.006``, the top of the unsided
+  chain above the arms). Joints at one position collapse to the deepest (the one whose bone
+  leaves that point). The chest is the trunk point the clavicles (or upper arms) hang from
+  (Character Creator's ``CC_Base_Spine02``, Unreal's ``spine_05``); when they hang from the neck
+  base itself (CMU: ``Spine1`` has only zero-length bones, to ``Neck`` and the collars), the point
+  below it. The spine is the lowest trunk point above the pelvis; the neck the first neck-named
+  point, else the point above the chest. A static root above the hips is no role.
+
+Positions, when given, serve only to find zero-length bones, so any pose of the skeleton will do
+(a clip's frame, what /tf shows, the identity-rotation offsets pose): a bone's length does not
+depend on the pose.
 """
 
 from __future__ import annotations
@@ -130,10 +139,18 @@ def _split_glued(token: str) -> list[str]:
     return [token]
 
 
+def _bare(name: str) -> str:
+    return re.sub(r"^.*[:|]", "", name)  # namespaces: 'mixamorig:', 'Armature|'
+
+
+def _stem(name: str) -> str:
+    """The name without numbers and separators: 'DEF-thigh.L.001' and 'DEF-thigh.L' share one."""
+    return re.sub(r"[\d\W_]+", "", _bare(name).lower())
+
+
 def classify_name(name: str) -> tuple[str | None, str | None]:
     """``(side, part)`` of a joint name; side 'left'/'right'/None, part a body part, 'aux' or None."""
-    bare = re.sub(r"^.*[:|]", "", name)  # namespaces: 'mixamorig:', 'Armature|'
-    tokens = [t for raw in _SPLIT.findall(bare) for t in _split_glued(raw.lower())]
+    tokens = [t for raw in _SPLIT.findall(_bare(name)) for t in _split_glued(raw.lower())]
     side = None
     words = []
     for token in tokens:
@@ -177,8 +194,12 @@ class _Tree:
             self.depth[i] = 0 if p < 0 else self.depth[p] + 1
         self.positions = None if rest_positions is None else np.asarray(rest_positions, dtype=float)
         if self.positions is not None:
-            extent = float(np.ptp(self.positions, axis=0).max()) if len(self.positions) else 0.0
-            self.tolerance = 1e-4 * max(extent, 1e-9)
+            # Relative to the long bones, not the pose's extent: a pose's spread (a static root left
+            # behind, limbs folded or laid along one axis) says nothing about the rig's scale.
+            child = np.asarray(self.parents) >= 0
+            lengths = np.linalg.norm(self.positions[child] - self.positions[np.asarray(self.parents)[child]], axis=1)
+            scale = float(np.percentile(lengths, 90)) if len(lengths) else 0.0
+            self.tolerance = 1e-3 * max(scale, 1e-9)
 
     def part(self, i: int) -> str | None:
         return self.labels[i][1]
@@ -204,6 +225,16 @@ class _Tree:
             if self.part(a) != "aux" and not self.colocated(a, i):
                 return a
         return None
+
+    def segment_start(self, i: int | None) -> int | None:
+        """The first of a bone's numbered segments ('DEF-thigh.L.001' -> its parent 'DEF-thigh.L')."""
+        while i is not None and self.parents[i] >= 0:
+            parent = self.parents[i]
+            if self.labels[parent] != self.labels[i] or _stem(self.skeleton.names[parent]) != _stem(
+                    self.skeleton.names[i]):
+                break
+            i = parent
+        return i
 
     def walk_down(self, i: int, side: str | None, parts: set[str]) -> int | None:
         """The next joint below ``i`` along its limb (a child of the same side and limb if any)."""
@@ -234,11 +265,11 @@ def _map_limb(tree: _Tree, side: str, limb: str) -> dict[str, int]:
     upper_part, lower_part, end_part, members = _LIMBS[limb]
     end = tree.shallowest(side, end_part)
     if end is not None:
-        lower = tree.walk_up(end)
+        lower = tree.segment_start(tree.walk_up(end))
     else:
         lower = tree.shallowest(side, lower_part)
         end = None if lower is None else tree.walk_down(lower, side, members)
-    upper = None if lower is None else tree.walk_up(lower)
+    upper = None if lower is None else tree.segment_start(tree.walk_up(lower))
     found = {upper_part: upper, lower_part: lower, end_part: end}
     # A joint of another side or body part is no limb joint: the chain left the limb.
     roles = {}
@@ -250,7 +281,8 @@ def _map_limb(tree: _Tree, side: str, limb: str) -> dict[str, int]:
     return roles
 
 
-def _map_trunk(tree: _Tree, pelvis: int, head: int) -> dict[str, int]:
+def _map_trunk(tree: _Tree, pelvis: int, head: int, arms: int | None) -> dict[str, int]:
+    """Spine, chest and neck on the chain from the pelvis to the head; ``arms``: where the upper arms hang."""
     top = tree.lowest_common_ancestor(pelvis, head)
     path = []
     for a in tree.ancestors(head):
@@ -258,7 +290,7 @@ def _map_trunk(tree: _Tree, pelvis: int, head: int) -> dict[str, int]:
             break
         path.append(a)
     path = [j for j in reversed(path) if tree.part(j) != "aux"]
-    # Joints at one rest position form one point; the deepest carries the bone to the next point.
+    # Joints at one position form one point; the deepest carries the bone to the next point.
     points: list[list[int]] = []
     for j in path:
         if points and tree.colocated(points[-1][-1], j):
@@ -268,21 +300,43 @@ def _map_trunk(tree: _Tree, pelvis: int, head: int) -> dict[str, int]:
     if points and tree.colocated(points[-1][-1], head):
         points.pop()  # joints at the head's own position start no trunk segment
     neck_at = next((k for k, group in enumerate(points) if any(tree.part(j) == "neck" for j in group)), None)
+    # The point the clavicles (or upper arms) hang from; if that is the neck base (CMU's zero-length
+    # Spine1 at Neck), the chest is the point below it.
+    hang = None if arms is None else tree.lowest_common_ancestor(arms, head)
+    chest_at = next((k for k, group in enumerate(points) if hang in group), None)
+    if chest_at is not None and neck_at is not None and chest_at >= neck_at:
+        chest_at = neck_at - 1 if neck_at > 0 else None
+    trunk_end = neck_at if neck_at is not None else len(points)
+    if chest_at is None and trunk_end:
+        chest_at = trunk_end // 2 if trunk_end >= 2 else 0  # the arms tell nothing: the middle point
     roles = {}
-    trunk = points if neck_at is None else points[:neck_at]
     if neck_at is not None:
         roles["neck"] = points[neck_at][-1]
-    if len(trunk) >= 2:
-        roles["spine"] = trunk[0][-1]
-    if trunk:
-        roles["chest"] = trunk[len(trunk) // 2][-1] if len(trunk) >= 2 else trunk[0][-1]
+    elif chest_at is not None and chest_at + 1 < len(points):
+        roles["neck"] = points[chest_at + 1][-1]  # unnamed (Rigify's DEF-spine.004): above the chest
+    if chest_at is not None:
+        roles["chest"] = points[chest_at][-1]
+        if chest_at >= 1:
+            roles["spine"] = points[0][-1]
     return roles
+
+
+def _unnamed_head(tree: _Tree, arms: int) -> int | None:
+    """The top of the unsided spine/neck chain above where the arms hang (Rigify: DEF-spine.006)."""
+    joint, top = arms, None
+    while True:
+        above = [c for c in tree.skeleton.children(joint)
+                 if tree.side(c) is None and tree.part(c) in ("spine", "neck", "head")]
+        if len(above) != 1:
+            return top
+        joint = top = above[0]
 
 
 def auto_joint_map(skeleton: Skeleton, rest_positions: np.ndarray | None = None) -> dict[str, str]:
     """Map a humanoid skeleton's frames to ``ROLES`` from its names and tree.
 
-    ``rest_positions (J, 3)`` (any units), if given, lets the mapper skip zero-length joints.
+    ``rest_positions (J, 3)`` (any units, any pose of the skeleton), if given, lets the mapper skip
+    zero-length joints.
     Raises ``JointMapError`` listing every missing required role and the joints it saw.
     """
     tree = _Tree(skeleton, rest_positions)
@@ -292,11 +346,17 @@ def auto_joint_map(skeleton: Skeleton, rest_positions: np.ndarray | None = None)
             roles.update(_map_limb(tree, side, limb))
     if "left_upper_leg" in roles and "right_upper_leg" in roles:
         roles["pelvis"] = tree.lowest_common_ancestor(roles["left_upper_leg"], roles["right_upper_leg"])
+    upper_arms = [roles[r] for r in ("left_upper_arm", "right_upper_arm") if r in roles]
+    arms = None
+    if upper_arms:
+        arms = upper_arms[0] if len(upper_arms) == 1 else tree.lowest_common_ancestor(*upper_arms)
     head = tree.shallowest(None, "head")
+    if head is None and arms is not None:
+        head = _unnamed_head(tree, arms)
     if head is not None:
         roles["head"] = head
         if "pelvis" in roles:
-            roles.update(_map_trunk(tree, roles["pelvis"], head))
+            roles.update(_map_trunk(tree, roles["pelvis"], head, arms))
     missing = [r for r in REQUIRED_ROLES if r not in roles]
     if missing:
         seen = ", ".join(

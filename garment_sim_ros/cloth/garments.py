@@ -33,6 +33,10 @@ class GarmentMesh:
     triangles: np.ndarray  # (T, 3) vertex indices, counter-clockwise seen from outside
     attachments: dict[str, np.ndarray]  # joint-map role -> vertex indices carried by that segment
     rings: dict[str, list[np.ndarray]] = field(default_factory=dict)  # named vertex rings, top to bottom
+    # Tubes that must stay round a limb: a ``rings`` name -> the body segments (joint-map roles, which
+    # are also the fitted volumes' names) each of its rings goes round, one or another. The first ring
+    # is where the tube leaves the garment's body tube (the trousers' crotch), no loop round the limb.
+    limb_tubes: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
     def edges(self) -> np.ndarray:
         """Unique undirected mesh edges (E, 2), smaller index first, sorted."""
@@ -193,6 +197,7 @@ def pants(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> Ga
     return GarmentMesh(
         "pants", np.concatenate(vertices), np.concatenate(triangles), {"pelvis": hip_rings[0]},
         {"waistband": [hip_rings[0]], **leg_rings},
+        {f"{side}_leg": (f"{side}_upper_leg", f"{side}_lower_leg") for side in ("left", "right")},
     )
 
 

@@ -12,7 +12,7 @@ correction acts on structural and shear springs.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -39,6 +39,7 @@ class ClothModel:
     attachment_frame_index: np.ndarray  # (A,) index into attachment_frames
     attachment_local: np.ndarray  # (A, 3) coordinates in the attachment frame, m
     rings: dict
+    limb_tubes: dict = field(default_factory=dict)  # see ``GarmentMesh.limb_tubes``
 
     @property
     def num_points(self) -> int:
@@ -151,4 +152,5 @@ def build_cloth_model(mesh: GarmentMesh, attachment_rest_poses: dict[str, tuple[
         attachment_frame_index=np.concatenate(frame_index) if frame_index else np.zeros(0, np.int64),
         attachment_local=np.concatenate(local) if local else np.zeros((0, 3)),
         rings=dict(mesh.rings),
+        limb_tubes=dict(mesh.limb_tubes),
     )

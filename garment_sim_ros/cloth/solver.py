@@ -87,6 +87,15 @@ class FrameReport:
     # the step's guard (``GarmentSolver.advance``): "" (a good step), "restored" (the step went
     # non-finite: the last good state is back) or "refitted" (runaway stretch: the rest shape at the new pose)
     recovery: str = ""
+    # How well the garment stays on after the frame (``garment_sim_ros.quality``); filled by
+    # ``DressedCharacter.step``, which has the pose (0 where the solver runs alone).
+    max_depth_m: float = 0.0  # (a) deepest free point inside a body volume, m
+    bones_through: int = 0  # (b) limb bone segments (thighs, shins, upper arms, forearms, spine) crossing a triangle
+    legs_off: int = 0  # (c) trouser legs (limb tubes) with a ring round none of their limb's volumes; 0 without
+    structural_stretch_p99: float = 0.0  # (d) 99th percentile of structural spring length / rest length
+    structural_stretch_max: float = 0.0  # (d) largest structural length / rest length
+    shear_stretch_p99: float = 0.0  # (d) 99th percentile of shear spring length / rest length
+    shear_stretch_max: float = 0.0  # (d) largest shear length / rest length
     extra: dict = field(default_factory=dict)
 
 

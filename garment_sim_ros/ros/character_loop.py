@@ -300,11 +300,12 @@ class CharacterLoop:
         if sample.status not in _USABLE:
             return self._wait(Status.WAITING, f"waiting for the skeleton under {root!r}: {sample.status.value}: "
                                               f"{sample.detail}")
-        changing = self._bones_settled(skeleton, time_s, sample.pose)
-        if changing:
-            self.counts["bones_changing"] += 1
-            return self._wait(Status.WAITING, f"waiting for the skeleton under {root!r} to hold still in shape: "
-                                              f"{changing}", "warning")
+        reason, unsettled = self._bones_settled(skeleton, time_s, sample.pose)
+        if unsettled:
+            if reason:
+                self.counts[reason] += 1
+            return self._wait(Status.WAITING, f"waiting for the skeleton under {root!r}: {unsettled}",
+                              "warning" if reason else "info")
         tic = time.perf_counter()
         try:
             character, joint_map = self._build(skeleton, sample.pose)
@@ -341,20 +342,23 @@ class CharacterLoop:
                       "range for this skeleton and were estimated from its height; override them with body_file")
         return DressedCharacter(body, self.garments, self.params, self.resolution), joint_map
 
-    def _bones_settled(self, skeleton: Skeleton, time_s: float, pose: SkeletonPose) -> str:
-        """Empty if the bones seen at ``time_s`` are those of a moment earlier, else why not: the canonical
-        pose is built from them, so a skeleton still being scaled or re-rigged is not fitted yet."""
+    def _bones_settled(self, skeleton: Skeleton, time_s: float, pose: SkeletonPose) -> tuple[str, str]:
+        """``("", "")`` if the bones seen at ``time_s`` are those of ``BONE_CHECK_S`` earlier, else a reason
+        (a counts key, or "" for a plain wait) and what is wrong: the canonical pose is built from them, so
+        a skeleton that has not been seen for that long, or is still being scaled or re-rigged, is not
+        fitted yet."""
         earlier = self.buffer.sample(time_s - BONE_CHECK_S, skeleton)
-        if earlier.pose is None:
-            return ""
+        if earlier.status != SampleStatus.OK:  # not seen that long ago: wait for the history
+            return "", f"its bones are checked over {BONE_CHECK_S:g} s of data first"
         now_t, before_t = local_transforms(pose)[0][1:], local_transforms(earlier.pose)[0][1:]
         lengths, before = np.linalg.norm(now_t, axis=1), np.linalg.norm(before_t, axis=1)
         change = np.abs(lengths - before)
         worst = int(np.argmax(change)) if len(change) else 0
         if len(change) and change[worst] > BONE_TOLERANCE_M + BONE_TOLERANCE * before[worst]:
-            return (f"bone {skeleton.names[worst + 1]!r} is {lengths[worst]:.4f} m long now and "
-                    f"{before[worst]:.4f} m {BONE_CHECK_S:g} s earlier")
-        return ""
+            return "bones_changing", (f"to hold still in shape: bone {skeleton.names[worst + 1]!r} is "
+                                      f"{lengths[worst]:.4f} m long now and {before[worst]:.4f} m "
+                                      f"{BONE_CHECK_S:g} s earlier")
+        return "", ""
 
     def _log(self, level: str, key: str, message: str) -> None:
         if self.logger is None or not self.throttle.ready(key):

@@ -5,6 +5,8 @@ The node records every tick (its compute time) and every simulated frame (the ga
 call and starts a new window. Stage times are per frame, summed over the garments (Table 1's
 columns: integration, length correction, collision handling, publishing). ``recoveries`` counts the
 solver guard's events (a step restored or re-fitted, ``FrameReport.recovery``) since the start.
+The garments' quality figures (``garment_sim_ros.quality``: limb bones through the cloth, trouser
+legs off, stretch p99 and max) are the window's worst frame, summed over the garments for counts.
 """
 
 from __future__ import annotations
@@ -14,6 +16,9 @@ from collections import Counter
 from typing import Sequence
 
 from ..cloth.solver import FrameReport
+from ..quality import REPORT_SCALARS
+
+_COUNTS = ("bones_through", "legs_off")  # add up over the garments; the stretch ratios take the worst
 
 
 class FrameStats:
@@ -33,6 +38,8 @@ class FrameStats:
         self._stages = {"integration": 0.0, "correction": 0.0, "collision": 0.0, "publish": 0.0}
         self._penetration = 0.0
         self._stretch = 0.0
+        self._quality = {name: 0.0 for name, _, _ in REPORT_SCALARS if name != "depth_mm"}  # worst in the window
+        self._bones_frames = 0  # frames with a limb bone through a garment
         self._hits = [0, 0]
         self._body_s = 0.0
         self._simulated_s = 0.0
@@ -56,6 +63,12 @@ class FrameStats:
         self._stages["correction"] += sum(r.correction_s for r in reports)
         self._stages["collision"] += sum(r.collision_s for r in reports)
         self._stretch = max(self._stretch, max(r.max_stretch for r in reports))
+        for name, field, _ in REPORT_SCALARS:
+            if name in self._quality:
+                values = [getattr(r, field) for r in reports]
+                frame = sum(values) if name in _COUNTS else max(values)
+                self._quality[name] = max(self._quality[name], frame)
+        self._bones_frames += any(r.bones_through for r in reports)
         self._hits = [sum(r.static_hits for r in reports), sum(r.dynamic_hits for r in reports)]
         self.lag_s = max(r.lag_s for r in reports)
         self._body_s += frame_s
@@ -68,7 +81,10 @@ class FrameStats:
         """Figures since the last call: fps (simulated frames per second of wall time), mean stage
         and tick times in ms, mean substeps, the window's worst penetration and stretch, and
         ``lag_fraction``, the share of the body's time the garments did not simulate in the window
-        (past ``max_substeps``); ``lag_s`` is the garments' total lag since they were dressed."""
+        (past ``max_substeps``); ``lag_s`` is the garments' total lag since they were dressed; the
+        quality figures (``bones_through``, ``legs_off``, ``structural_stretch_p99``... as in
+        ``quality.REPORT_SCALARS``) are the window's worst frame, ``bones_through_frames`` counts the
+        window's frames with a limb bone through a garment."""
         elapsed = max(time.monotonic() - self._window_start, 1e-9)
         per_frame = max(self._frames, 1)
         per_step = max(self._stepped, 1)
@@ -84,6 +100,8 @@ class FrameStats:
                for stage, total in self._stages.items()},
             "max_penetration_mm": 1e3 * self._penetration,
             "max_stretch": self._stretch,
+            **self._quality,
+            "bones_through_frames": float(self._bones_frames),
             "static_hits": float(self._hits[0]),
             "dynamic_hits": float(self._hits[1]),
         }

@@ -9,7 +9,9 @@ Wires topics, parameters and timers to the ROS-free modules:
   body volumes) on ``~/markers`` as a serialized ``visualization_msgs/MarkerArray`` stamped
   ``T_next`` in ``fixed_frame``, and to Rerun when ``rerun_sink`` is not off.
 - ``/diagnostics`` (``diagnostic_msgs/DiagnosticArray``) every ``diagnostics_period``: fps, substeps,
-  lag, stage times, penetration, skeleton age, counts of refused input (``rejected_*``, ``input_*``),
+  lag, stage times, penetration, the garments' quality (``bones_through``, ``bones_through_frames``,
+  ``legs_off``, structural and shear stretch p99 and max: ``ros.frame_stats``), skeleton age,
+  counts of refused input (``rejected_*``, ``input_*``),
   of skipped frames and re-dresses (``loop_*``) and of garment steps the solver's guard restored or
   re-fitted (``solver_restored``, ``solver_refitted``); OK running, WARN waiting, holding or lagging,
   ERROR for a skeleton that cannot be mapped or a frame that failed since the last status.
@@ -45,6 +47,7 @@ from visualization_msgs.msg import MarkerArray
 from ..body.pose_buffer import PoseBuffer
 from ..markers import frame_markers
 from ..params import Param, ParameterError, SolverParams
+from ..quality import report_scalars
 from ..rerun_log import RerunLogger, frame_payload
 from .character_loop import CharacterLoop, FrameResult, Status, Throttle
 from .frame_stats import FrameStats
@@ -365,8 +368,11 @@ class GarmentSimNode(Node):
         timings_ms = {"integration": sum(r.integration_s for r in reports),
                       "correction": sum(r.correction_s for r in reports),
                       "collision": sum(r.collision_s for r in reports), "publish": publish_s}
+        quality = {solver.model.name: report_scalars(report)
+                   for solver, report in zip(self.loop.character.solvers, reports)}
         try:
-            self.rerun.log_frame(result.time_s, timings_ms={k: 1e3 * s for k, s in timings_ms.items()}, **payload)
+            self.rerun.log_frame(result.time_s, timings_ms={k: 1e3 * s for k, s in timings_ms.items()},
+                                 quality=quality, **payload)
         except Exception as err:  # the viewer went away, the disk is full...: markers go on
             self.get_logger().error(f"Rerun logging failed, switched off: {err}")
             self.rerun = None

@@ -1,0 +1,220 @@
+"""``garment-sim evaluate``: do the garments stay on real motion? Issue 11's figures and targets.
+
+One run per clip x garment x playback speed x frame rate: the clip is played once (no loop)
+at that speed, sampled at that frame rate, and drives ``DressedCharacter`` exactly as
+``garment-sim simulate`` does (``commands.simulate.simulate_frames``); the figures
+(``garment_sim_ros.quality``, filled into every ``FrameReport``) are gathered from the first
+frame after dressing to the clip's end (or ``--duration``) and judged against
+``quality.TARGETS``. Exit status: 0 when every run passes, 1 when one fails, 2 on bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from ..cloth.garments import GARMENT_NAMES
+from ..params import PRESETS
+from ..quality import TARGETS
+
+HELP = ("Play BVH clips once through on the dressed character, each garment at each playback speed and frame "
+        "rate, and judge how well the garments stay on: limb bones through the cloth, trouser legs off their "
+        "leg, free points inside the body, stretch, guard firings; one row per run and a summary.")
+TARGET_NAMES = {"b": "bones", "c": "legs", "a": "depth", "d": "stretch", "e": "guard"}  # the issue's letters
+
+
+@dataclass(frozen=True)
+class Run:
+    """One evaluation run."""
+
+    clip: str  # BVH file
+    garment: str
+    speed: float  # playback speed, x
+    fps: float  # frame rate of the run, Hz
+    duration: float | None = None  # body seconds after dressing at most (None: to the clip's end)
+    preset: str = "si"
+    resolution: float = 1.0
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("clips", nargs="+", metavar="CLIP.bvh", help="BVH clips to play")
+    parser.add_argument("--garments", default="all", help=f"comma-separated, of: {', '.join(GARMENT_NAMES)}; or all")
+    parser.add_argument("--speeds", default="1", help="comma-separated playback speeds (default 1)")
+    parser.add_argument("--fps", default="60", help="comma-separated frame rates, Hz (default 60)")
+    parser.add_argument("--duration", type=float, default=None,
+                        help="play at most this many seconds of each clip after dressing (default: all of it)")
+    parser.add_argument("--jobs", type=int, default=1, help="runs in parallel processes (default 1)")
+    parser.add_argument("--resolution", type=float, default=1.0, help="garment resolution factor")
+    parser.add_argument("--preset", default="si", choices=sorted(PRESETS), help="parameter preset")
+    parser.add_argument("--json", action="store_true", help="one JSON object per run, then a summary object")
+
+
+def _numbers(option: str, text: str) -> list[float]:
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise ValueError(f"{option}: expected comma-separated numbers, got {text!r}") from None
+    if not values or not all(math.isfinite(v) and v > 0 for v in values):
+        raise ValueError(f"{option}: every value must be a number > 0, got {text!r}")
+    return values
+
+
+def plan(args) -> list[Run]:
+    """The runs the arguments ask for, clip by clip, then garment, speed, frame rate."""
+    from .simulate import parse_garments
+
+    garments = list(GARMENT_NAMES) if args.garments.strip() == "all" else parse_garments(args.garments)
+    speeds, rates = _numbers("--speeds", args.speeds), _numbers("--fps", args.fps)
+    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
+        raise ValueError(f"--duration must be > 0, got {args.duration}")
+    if args.jobs < 1:
+        raise ValueError(f"--jobs must be >= 1, got {args.jobs}")
+    for clip in args.clips:
+        if not Path(clip).is_file():
+            raise ValueError(f"no such clip: {clip}")
+    return [Run(clip, garment, speed, fps, args.duration, args.preset, args.resolution)
+            for clip in args.clips for garment in garments for speed in speeds for fps in rates]
+
+
+def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
+    """Play ``run`` and return its row, over the frames after dressing:
+
+    ``clip`` (file stem), ``garment``, ``speed`` (x), ``fps`` (Hz), ``frames``; ``bones_frames`` (frames
+    with a limb bone through the cloth) and ``bones_max`` (most bones at once); ``limb_tubes`` (the
+    garment's trouser legs) and ``legs_off_frames``; ``deep_frames`` / ``deep_share`` (frames with a
+    free point deeper than ``Targets.depth_tolerance_m``) and ``max_depth_mm``;
+    ``structural_stretch_p99`` / ``shear_stretch_p99`` (the worst frame's 99th percentile of length /
+    rest length) and ``..._max`` (the longest spring); ``guard_firings`` (frames);
+    ``targets`` (``quality.Targets.judge``), ``passed`` and ``wall_s``.
+    ``after_dressing(character)`` is called once the garments are on (a test moves the cloth there)."""
+    from ..body.sources import bvh_source
+    from ..params import preset
+    from .simulate import make_character, simulate_frames
+
+    tic = time.perf_counter()
+    source = bvh_source(run.clip, loop=False, speed=run.speed)
+    character = make_character(source, [run.garment], preset(run.preset), run.resolution)
+    seconds = source.duration if run.duration is None else min(source.duration, run.duration)
+    frames = int(math.floor(seconds * run.fps + 1e-9))
+    if frames < 1:
+        raise ValueError(f"{run.clip}: {seconds:.4f} s at {run.speed:g}x is shorter than one frame at {run.fps:g} fps")
+    depth, bones = np.zeros(frames), np.zeros(frames, dtype=np.int64)
+    legs_off, guard = np.zeros(frames, dtype=np.int64), np.zeros(frames, dtype=bool)
+    stretch = np.zeros((frames, 4))  # structural p99, max, shear p99, max
+    steps = simulate_frames(source, character, np.arange(frames + 1) / run.fps)
+    for k, (_, _, reports) in enumerate(steps):
+        if reports is None:  # the dressing
+            if after_dressing is not None:
+                after_dressing(character)
+            continue
+        report = reports[0]
+        depth[k - 1], bones[k - 1], legs_off[k - 1] = report.max_depth_m, report.bones_through, report.legs_off
+        guard[k - 1] = bool(report.recovery)
+        stretch[k - 1] = (report.structural_stretch_p99, report.structural_stretch_max,
+                          report.shear_stretch_p99, report.shear_stretch_max)
+    worst = stretch.max(axis=0)
+    row = {
+        "clip": Path(run.clip).stem, "garment": run.garment, "speed": run.speed, "fps": run.fps, "frames": frames,
+        "bones_frames": int(np.count_nonzero(bones)), "bones_max": int(bones.max()),
+        "limb_tubes": len(character.solvers[0].model.limb_tubes),  # trouser legs: 2 for pants
+        "legs_off_frames": int(np.count_nonzero(legs_off)),
+        "deep_frames": int(np.count_nonzero(depth > TARGETS.depth_tolerance_m)),
+        "deep_share": float(np.count_nonzero(depth > TARGETS.depth_tolerance_m) / frames),
+        "max_depth_mm": float(depth.max() * 1e3),
+        "structural_stretch_p99": float(worst[0]), "structural_stretch_max": float(worst[1]),
+        "shear_stretch_p99": float(worst[2]), "shear_stretch_max": float(worst[3]),
+        "guard_firings": int(np.count_nonzero(guard)),
+    }
+    row["targets"] = TARGETS.judge(row)
+    row["passed"] = all(v is not False for v in row["targets"].values())
+    row["wall_s"] = round(time.perf_counter() - tic, 2)  # for the reader only; nothing is judged on it
+    return row
+
+
+def _worker_init(threads: int) -> None:
+    from ..benchmarking import set_threads
+
+    set_threads(threads)  # the processes share the cores: numba's parallel kernels would oversubscribe
+
+
+def evaluate_all(runs: list[Run], jobs: int = 1, on_row: Callable[[int, dict], None] | None = None) -> list[dict]:
+    """Rows of ``runs`` in order; ``jobs`` > 1 spreads them over that many processes."""
+    rows = []
+    if jobs == 1 or len(runs) == 1:
+        iterator = map(evaluate_run, runs)
+        pool = None
+    else:
+        import multiprocessing
+
+        # spawn: numba's threading layer is not safe across fork
+        pool = multiprocessing.get_context("spawn").Pool(min(jobs, len(runs)), _worker_init, (1,))
+        iterator = pool.imap(evaluate_run, runs)
+    try:
+        for k, row in enumerate(iterator):
+            rows.append(row)
+            if on_row is not None:
+                on_row(k, row)
+    finally:
+        if pool is not None:
+            pool.terminate()
+    return rows
+
+
+def summarize(rows: list[dict]) -> dict:
+    """Runs passed, and per target (the issue's letter) how many runs it was asked of and passed."""
+    targets = {}
+    for key, name in TARGET_NAMES.items():
+        asked = [r["targets"][key] for r in rows if r["targets"][key] is not None]
+        targets[key] = {"name": name, "passed": sum(asked), "asked": len(asked)}
+    return {"runs": len(rows), "passed": sum(r["passed"] for r in rows), "targets": targets}
+
+
+def _verdict(row: dict) -> str:
+    failed = [TARGET_NAMES[k] for k, ok in row["targets"].items() if ok is False]
+    return "PASS" if not failed else "FAIL " + ",".join(failed)
+
+
+HEADER = (f"{'clip':<40} {'garment':<11} {'speed':>5} {'fps':>4} {'frames':>6}  {'bones frm/max':>13}  "
+          f"{'legs off':>8}  {'>1mm %':>6} {'max mm':>7}  {'struct p99/max':>14}  {'shear p99/max':>13}  {'guard':>5}  result")
+
+
+def format_row(row: dict) -> str:
+    legs = f"{row['legs_off_frames']}" if row["limb_tubes"] else "-"
+    return (f"{row['clip'][:40]:<40} {row['garment']:<11} {row['speed']:>4g}x {row['fps']:>4g} {row['frames']:>6}  "
+            f"{row['bones_frames']:>9}/{row['bones_max']:<3}  {legs:>8}  {100 * row['deep_share']:>6.1f} "
+            f"{row['max_depth_mm']:>7.1f}  {row['structural_stretch_p99']:>6.2f}/{row['structural_stretch_max']:<7.2f}"
+            f"  {row['shear_stretch_p99']:>5.2f}/{row['shear_stretch_max']:<7.2f}  {row['guard_firings']:>5}"
+            f"  {_verdict(row)}")
+
+
+def format_summary(summary: dict) -> str:
+    parts = [f"({k}) {t['name']} {t['passed']}/{t['asked']}" for k, t in summary["targets"].items()]
+    return f"passed {summary['passed']}/{summary['runs']} runs; " + ", ".join(parts)
+
+
+def run(args) -> int:
+    from ..benchmarking import progress
+
+    runs = plan(args)
+    progress(f"evaluate: {len(runs)} runs ({len(args.clips)} clips) on {min(args.jobs, len(runs))} process(es)")
+    if not args.json:
+        print(HEADER, flush=True)
+    start = time.perf_counter()
+
+    def on_row(k: int, row: dict) -> None:
+        progress(f"evaluate: [{k + 1}/{len(runs)}] {row['clip']} {row['garment']} {row['speed']:g}x {row['fps']:g} fps: "
+                 f"{_verdict(row)} ({row['wall_s']:.1f} s; {time.perf_counter() - start:.0f} s so far)")
+        print(json.dumps(row) if args.json else format_row(row), flush=True)
+
+    rows = evaluate_all(runs, args.jobs, on_row)
+    summary = summarize(rows)
+    print(json.dumps({"summary": summary}) if args.json else format_summary(summary))
+    return 0 if summary["passed"] == summary["runs"] else 1
+

@@ -1,0 +1,334 @@
+"""How well a garment stays on the body: the figures of issue 11 and their targets (ROS-free).
+
+A point-depth figure alone cannot see a limb that passes *between* cloth points, so besides
+(a) the deepest free point inside a volume (``Collider.penetration_depths``) a garment is
+measured by:
+
+- (b) limb bones through the cloth: the limb bone segments (thighs, shins, upper arms,
+  forearms, and the spine from the pelvis to the chest joint) that cross a garment triangle;
+- (c) trouser legs off their leg: a limb tube of the garment (``GarmentMesh.limb_tubes``) one of whose
+  rings goes round none of its limb's volumes (winding number about the volume's axis);
+- (d) structural and shear stretch (length / rest length): 99th percentile and maximum;
+- (e) guard firings (``FrameReport.recovery``), counted by the callers.
+
+``GarmentMeter.measure`` fills a ``FrameReport``'s figures; ``DressedCharacter.step`` calls it
+after every frame. ``Targets`` is the one table of pass/fail thresholds (``garment-sim evaluate``).
+The per-triangle and per-spring work is in numba kernels over flat arrays.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from .cloth.model import SHEAR, STRUCTURAL
+from .collision.kernels import to_local
+from .transforms import quat_to_matrix
+
+# name, joint-map role at the bone's start, role at its end (body.joint_map.ROLES)
+LIMB_BONES: tuple[tuple[str, str, str], ...] = (
+    ("left_thigh", "left_upper_leg", "left_lower_leg"),
+    ("right_thigh", "right_upper_leg", "right_lower_leg"),
+    ("left_shin", "left_lower_leg", "left_foot"),
+    ("right_shin", "right_lower_leg", "right_foot"),
+    ("left_upper_arm", "left_upper_arm", "left_lower_arm"),
+    ("right_upper_arm", "right_upper_arm", "right_lower_arm"),
+    ("left_forearm", "left_lower_arm", "left_hand"),
+    ("right_forearm", "right_lower_arm", "right_hand"),
+    ("spine", "pelvis", "chest"),
+)
+PERCENTILE = 99.0  # the "p99" of the stretch figures
+
+# Barycentric and segment-parameter slack of the crossing test: a bone through a shared edge or
+# vertex exactly must not slip between the two triangles, so boundaries count as crossed.
+_EDGE_SLACK = 1e-9
+# |sine| of the angle between a bone and a triangle's plane below which they count as parallel
+# (a bone lying in the cloth's plane does not pass through it).
+_PARALLEL_SINE = 1e-9
+
+
+# ----------------------------------------------------------------------------- kernels
+
+@njit(cache=True, inline="always")
+def _crosses(px, py, pz, dx, dy, dz, x, a, b, c):
+    """Möller–Trumbore: does the segment ``p + s d`` (0 <= s <= 1) meet triangle (a, b, c) of ``x``?"""
+    e1x, e1y, e1z = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1], x[b, 2] - x[a, 2]
+    e2x, e2y, e2z = x[c, 0] - x[a, 0], x[c, 1] - x[a, 1], x[c, 2] - x[a, 2]
+    hx, hy, hz = dy * e2z - dz * e2y, dz * e2x - dx * e2z, dx * e2y - dy * e2x
+    det = e1x * hx + e1y * hy + e1z * hz
+    # det = d . (e1 x e2): |d| |e1 x e2| times the sine of the angle between d and the plane
+    nx, ny, nz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+    scale = math.sqrt((dx * dx + dy * dy + dz * dz) * (nx * nx + ny * ny + nz * nz))
+    if abs(det) <= _PARALLEL_SINE * scale:
+        return False
+    inv = 1.0 / det
+    sx, sy, sz = px - x[a, 0], py - x[a, 1], pz - x[a, 2]
+    u = inv * (sx * hx + sy * hy + sz * hz)
+    if u < -_EDGE_SLACK or u > 1.0 + _EDGE_SLACK:
+        return False
+    qx, qy, qz = sy * e1z - sz * e1y, sz * e1x - sx * e1z, sx * e1y - sy * e1x
+    w = inv * (dx * qx + dy * qy + dz * qz)
+    if w < -_EDGE_SLACK or u + w > 1.0 + _EDGE_SLACK:
+        return False
+    s = inv * (e2x * qx + e2y * qy + e2z * qz)
+    return -_EDGE_SLACK <= s <= 1.0 + _EDGE_SLACK
+
+
+@njit(cache=True)
+def segments_through_triangles(starts, ends, x, triangles, crossed):
+    """Which segments (``starts``, ``ends``: (B, 3)) cross any triangle (T, 3) of points ``x`` (N, 3).
+
+    Writes ``crossed`` (B,) bool and returns how many do. A segment touching a triangle's edge or
+    vertex crosses; one parallel to a triangle's plane (in it or not) does not cross that triangle.
+    """
+    count = 0
+    for k in range(starts.shape[0]):
+        px, py, pz = starts[k, 0], starts[k, 1], starts[k, 2]
+        dx, dy, dz = ends[k, 0] - px, ends[k, 1] - py, ends[k, 2] - pz
+        lo_x, hi_x = min(px, ends[k, 0]), max(px, ends[k, 0])
+        lo_y, hi_y = min(py, ends[k, 1]), max(py, ends[k, 1])
+        lo_z, hi_z = min(pz, ends[k, 2]), max(pz, ends[k, 2])
+        crossed[k] = False
+        for t in range(triangles.shape[0]):
+            a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+            # boxes first: most triangles are nowhere near a bone
+            if (max(x[a, 0], x[b, 0], x[c, 0]) < lo_x - 1e-9 or min(x[a, 0], x[b, 0], x[c, 0]) > hi_x + 1e-9
+                    or max(x[a, 1], x[b, 1], x[c, 1]) < lo_y - 1e-9 or min(x[a, 1], x[b, 1], x[c, 1]) > hi_y + 1e-9
+                    or max(x[a, 2], x[b, 2], x[c, 2]) < lo_z - 1e-9 or min(x[a, 2], x[b, 2], x[c, 2]) > hi_z + 1e-9):
+                continue
+            if _crosses(px, py, pz, dx, dy, dz, x, a, b, c):
+                crossed[k] = True
+                count += 1
+                break
+    return count
+
+
+@njit(cache=True)
+def rings_around(x, ring_vertices, ring_starts, ring_volumes, pos, rot, cuts, around):
+    """Which rings go round one of their volumes' axes.
+
+    Ring ``r`` is ``x[ring_vertices[ring_starts[r]:ring_starts[r + 1]]]`` (a closed polygon);
+    ``ring_volumes`` (R, K) the volumes it may go round (-1: none); ``pos`` (V, 3), ``rot`` (V, 3, 3)
+    the volumes' poses in ``x``'s frame; ``cuts`` (V, 2) their kept local z range, m. A ring goes
+    round volume v when its mean local height lies within v's cut and its winding number about
+    v's local z axis is not zero (a ring's centroid would not do: a loose hem hanging off a bent
+    shin still goes round it with its centroid 1.5 shin radii off the axis). Writes ``around`` (R,).
+    """
+    for r in range(ring_starts.shape[0] - 1):
+        first, last = ring_starts[r], ring_starts[r + 1]
+        around[r] = False
+        for k in range(ring_volumes.shape[1]):
+            v = ring_volumes[r, k]
+            if v < 0:
+                continue
+            i = ring_vertices[last - 1]
+            lx, ly, lz = to_local(pos, rot, v, x[i, 0], x[i, 1], x[i, 2])
+            previous = math.atan2(ly, lx)
+            turned = 0.0
+            height = 0.0
+            for j in range(first, last):
+                i = ring_vertices[j]
+                lx, ly, lz = to_local(pos, rot, v, x[i, 0], x[i, 1], x[i, 2])
+                angle = math.atan2(ly, lx)
+                step = angle - previous
+                turned += (step + math.pi) % (2.0 * math.pi) - math.pi  # the short way round
+                previous = angle
+                height += lz
+            height /= last - first
+            if cuts[v, 0] <= height <= cuts[v, 1] and round(turned / (2.0 * math.pi)) != 0:
+                around[r] = True
+                break
+
+
+@njit(cache=True)
+def spring_stretches(x, springs, rest, out):
+    """Length / rest length of every spring (S, 2) of points ``x`` (N, 3); writes ``out`` (S,)."""
+    for s in range(springs.shape[0]):
+        a, b = springs[s, 0], springs[s, 1]
+        dx, dy, dz = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1], x[b, 2] - x[a, 2]
+        out[s] = math.sqrt(dx * dx + dy * dy + dz * dz) / rest[s]
+
+
+# ----------------------------------------------------------------------------- per garment
+
+def free_point_depth(solver) -> float:
+    """Deepest free (not attached) point of the garment inside any volume at the last frame's end, m.
+
+    Attached points are left out: they ride on their segment wherever it puts them (a strapless
+    dress's neckline runs under the arms' volumes)."""
+    if solver.collider is None:
+        return 0.0
+    free = solver.constants.inv_mass > 0.0
+    depths = solver.collider.penetration_depths(solver.state.positions)[free]
+    return float(np.max(depths, initial=0.0))
+
+
+class LimbTubes:
+    """A garment's limb tubes (``ClothModel.limb_tubes``) against a ``VolumeSet``, as flat arrays.
+
+    A tube whose limb has no volume of that name is not checked (a body without leg volumes)."""
+
+    def __init__(self, model, volumes):
+        names = volumes.names() if volumes is not None else []
+        vertices, starts, ring_volumes, ring_tube = [], [0], [], []
+        self.names: list[str] = []
+        for tube, segments in model.limb_tubes.items():
+            wanted = [names.index(s) for s in segments if s in names]
+            if not wanted:
+                continue
+            for ring in model.rings[tube][1:]:  # the first ring joins the body tube (see GarmentMesh)
+                vertices.append(np.asarray(ring, dtype=np.int64))
+                starts.append(starts[-1] + len(ring))
+                ring_volumes.append(wanted)
+                ring_tube.append(len(self.names))
+            self.names.append(tube)
+        width = max((len(v) for v in ring_volumes), default=1)
+        self.ring_vertices = np.concatenate(vertices) if vertices else np.zeros(0, np.int64)
+        self.ring_starts = np.asarray(starts, dtype=np.int64)
+        self.ring_volumes = np.full((len(ring_volumes), width), -1, dtype=np.int64)
+        for r, wanted in enumerate(ring_volumes):
+            self.ring_volumes[r, :len(wanted)] = wanted
+        self.ring_tube = np.asarray(ring_tube, dtype=np.int64)
+        self.cuts = np.ascontiguousarray(volumes.cuts, dtype=float) if volumes is not None else np.zeros((0, 2))
+        self._around = np.zeros(len(ring_volumes), dtype=np.bool_)
+
+    def rings_off(self, positions: np.ndarray, volume_positions: np.ndarray, volume_rotations: np.ndarray
+                  ) -> np.ndarray:
+        """Per tube (``self.names``), the rings that go round none of its limb's volumes.
+
+        ``positions`` (N, 3) and the volumes' poses (V, 3) and (V, 3, 3) rotation matrices or
+        (V, 4) xyzw quaternions, all in one frame (the world, or the simulation frame)."""
+        rotations = np.asarray(volume_rotations, dtype=float)
+        if rotations.ndim == 2:
+            rotations = quat_to_matrix(rotations)
+        if len(self._around):
+            rings_around(np.ascontiguousarray(positions, dtype=float), self.ring_vertices, self.ring_starts,
+                         self.ring_volumes, np.ascontiguousarray(volume_positions, dtype=float),
+                         np.ascontiguousarray(rotations), self.cuts, self._around)
+        return np.bincount(self.ring_tube[~self._around], minlength=len(self.names))
+
+
+def rings_off_the_legs(model, volumes, positions, volume_positions, volume_rotations) -> np.ndarray:
+    """Rings off their limb per limb tube of ``model`` (see ``LimbTubes.rings_off``)."""
+    return LimbTubes(model, volumes).rings_off(positions, volume_positions, volume_rotations)
+
+
+class GarmentMeter:
+    """Measures one garment on one body after a frame (index arrays prepared once)."""
+
+    def __init__(self, model, volumes, joint_map):
+        self.bones = tuple(b for b in LIMB_BONES if b[1] in joint_map and b[2] in joint_map)
+        self._bone_frames = [(joint_map[start], joint_map[end]) for _, start, end in self.bones]
+        self.tubes = LimbTubes(model, volumes)
+        self._triangles = np.ascontiguousarray(model.triangles, dtype=np.int64)
+        kinds = model.spring_kinds
+        self._kinds = {name: np.flatnonzero(kinds == kind) for name, kind in (("structural", STRUCTURAL),
+                                                                               ("shear", SHEAR))}
+        self._springs = np.ascontiguousarray(model.springs)
+        self._rest = np.ascontiguousarray(model.rest_lengths)
+        self._stretch = np.zeros(len(model.springs))
+        self._crossed = np.zeros(len(self.bones), dtype=np.bool_)
+
+    def bone_segments(self, pose) -> tuple[np.ndarray, np.ndarray]:
+        """Starts and ends (B, 3) of ``self.bones`` in the world at a ``SkeletonPose``, m."""
+        index = np.array([[pose.skeleton.index(a), pose.skeleton.index(b)] for a, b in self._bone_frames],
+                         dtype=np.int64).reshape(-1, 2)
+        return np.ascontiguousarray(pose.positions[index[:, 0]]), np.ascontiguousarray(pose.positions[index[:, 1]])
+
+    def bones_through(self, world_positions: np.ndarray, pose) -> list[str]:
+        """Names of the limb bones crossing a garment triangle (garment positions (N, 3), world, m)."""
+        starts, ends = self.bone_segments(pose)
+        segments_through_triangles(starts, ends, np.ascontiguousarray(world_positions, dtype=float),
+                                   self._triangles, self._crossed)
+        return [b[0] for b, hit in zip(self.bones, self._crossed) if hit]
+
+    def stretch(self, positions: np.ndarray) -> dict[str, tuple[float, float]]:
+        """``{"structural": (p99, max), "shear": (p99, max)}`` of length / rest length."""
+        spring_stretches(np.ascontiguousarray(positions, dtype=float), self._springs, self._rest, self._stretch)
+        figures = {}
+        for name, index in self._kinds.items():
+            values = self._stretch[index]
+            figures[name] = ((float(np.percentile(values, PERCENTILE)), float(values.max())) if len(values)
+                             else (0.0, 0.0))
+        return figures
+
+    def measure(self, report, solver, world_positions, pose, volume_positions, volume_rotations) -> None:
+        """Fill ``report``'s quality figures (see ``FrameReport``) for ``solver``'s garment after a
+        frame: its world positions (N, 3), the ``SkeletonPose`` and the volumes' world poses."""
+        report.max_depth_m = free_point_depth(solver)
+        report.bones_through = len(self.bones_through(world_positions, pose))
+        off = self.tubes.rings_off(world_positions, volume_positions, volume_rotations)
+        report.legs_off = int(np.count_nonzero(off))
+        stretch = self.stretch(solver.state.positions)
+        report.structural_stretch_p99, report.structural_stretch_max = stretch["structural"]
+        report.shear_stretch_p99, report.shear_stretch_max = stretch["shear"]
+
+
+# ----------------------------------------------------------------------------- scalars and targets
+
+# FrameReport quality fields as scalars (name -> field, scale): Rerun, diagnostics, command lines
+REPORT_SCALARS: tuple[tuple[str, str, float], ...] = (
+    ("depth_mm", "max_depth_m", 1e3),
+    ("bones_through", "bones_through", 1.0),
+    ("legs_off", "legs_off", 1.0),
+    ("structural_stretch_p99", "structural_stretch_p99", 1.0),
+    ("structural_stretch_max", "structural_stretch_max", 1.0),
+    ("shear_stretch_p99", "shear_stretch_p99", 1.0),
+    ("shear_stretch_max", "shear_stretch_max", 1.0),
+)
+
+
+def report_scalars(report) -> dict[str, float]:
+    """A ``FrameReport``'s quality figures by name (``REPORT_SCALARS``), plus ``guard`` (1 if it fired)."""
+    values = {name: float(getattr(report, field)) * scale for name, field, scale in REPORT_SCALARS}
+    values["guard"] = float(bool(report.recovery))
+    return values
+
+
+@dataclass(frozen=True)
+class Targets:
+    """Issue 11's pass/fail thresholds for one run (a clip, a garment, a playback speed, a frame rate),
+    measured from the first frame after dressing. Keys are the issue's letters:
+
+    - (b) no limb bone through the cloth in any frame;
+    - (c) no trouser leg off its leg in any frame;
+    - (a) free points deeper than ``depth_tolerance_m`` in at most ``depth_frame_share`` of the
+      frames, and never deeper than ``depth_never_m``;
+    - (d) stretch (structural and shear) 99th percentile at most ``stretch_p99`` in every frame and
+      no spring beyond ``stretch_max`` times its rest length;
+    - (e) the guard never fires.
+
+    From ``fast_speed`` times playback on only (b), (c), (e) and ``depth_never_m`` are asked.
+    """
+
+    depth_tolerance_m: float = 0.001
+    depth_frame_share: float = 0.001
+    depth_never_m: float = 0.005
+    stretch_p99: float = 1.05
+    stretch_max: float = 1.5
+    fast_speed: float = 3.0
+
+    def judge(self, row: dict) -> dict[str, bool | None]:
+        """Pass (True), fail (False) or not asked (None) per target for an evaluation row (the keys of
+        ``commands.evaluate.evaluate_run``'s result)."""
+        fast = row["speed"] >= self.fast_speed
+        depth_m = row["max_depth_mm"] * 1e-3
+        if fast:
+            depth_ok = depth_m < self.depth_never_m
+        else:
+            depth_ok = depth_m <= self.depth_never_m and row["deep_frames"] <= self.depth_frame_share * row["frames"]
+        stretch_ok = all(row[f"{kind}_stretch_p99"] <= self.stretch_p99
+                         and row[f"{kind}_stretch_max"] <= self.stretch_max for kind in ("structural", "shear"))
+        return {
+            "b": row["bones_frames"] == 0,
+            "c": row["legs_off_frames"] == 0 if row["limb_tubes"] else None,
+            "a": depth_ok,
+            "d": None if fast else stretch_ok,
+            "e": row["guard_firings"] == 0,
+        }
+
+
+TARGETS = Targets()

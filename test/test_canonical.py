@@ -1,0 +1,208 @@
+"""The canonical standing pose, the plausible body and the clip edges, on every real clip we ship.
+
+test/data holds the project's nine real clips unchanged (three conventions: CMU cgspeed in both
+namings, the Xia walks, Character Creator with its bind in the rotation channels).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from garment_sim_ros.body.bvh import load_bvh
+from garment_sim_ros.body.canonical import ARM_DROP_DEG, canonical_pose, local_transforms
+from garment_sim_ros.body.fitting import PLAUSIBLE_PER_STATURE, fit_body
+from garment_sim_ros.body.joint_map import auto_joint_map
+from garment_sim_ros.body.pose_buffer import PoseBuffer
+from garment_sim_ros.body.sources import bvh_source
+from garment_sim_ros.params import DEFAULT_PARAMS
+from garment_sim_ros.ros.character_loop import CharacterLoop, Status
+from garment_sim_ros.transforms import yaw_quat
+
+DATA = Path(__file__).parent / "data"
+CLIPS = sorted(p.name for p in DATA.glob("*.bvh"))
+FRAME = 1.0 / 60.0
+
+
+def test_the_nine_shared_clips_are_here():
+    assert len(CLIPS) == 9 and sum(name.startswith("cc_") for name in CLIPS) == 4
+
+
+@pytest.fixture(scope="module", params=CLIPS)
+def standing(request):
+    clip = load_bvh(DATA / request.param)
+    first = clip.pose(0)
+    joint_map = auto_joint_map(clip.skeleton, first.positions)
+    return clip, joint_map, canonical_pose(first, joint_map)
+
+
+def z_of(pose, joint_map, role):
+    return pose.frame(joint_map[role])[0][2]
+
+
+def test_canonical_pose_stands_every_rig_up(standing):
+    clip, jm, pose = standing
+    p = {role: pose.frame(name)[0] for role, name in jm.items()}
+    for side, sign in (("left", 1.0), ("right", -1.0)):
+        hip, knee, ankle = p[f"{side}_upper_leg"], p[f"{side}_lower_leg"], p[f"{side}_foot"]
+        # legs straight down under the hips
+        assert hip[2] > knee[2] > ankle[2] and np.linalg.norm((hip - ankle)[:2]) < 0.01
+        assert sign * hip[1] > 0.03 and sign * p[f"{side}_upper_arm"][1] > 0.1
+        # the A-pose: the arm ARM_DROP_DEG below horizontal, outwards
+        arm = p[f"{side}_lower_arm"] - p[f"{side}_upper_arm"]
+        drop = math.degrees(math.atan2(-arm[2], sign * arm[1]))
+        assert drop == pytest.approx(ARM_DROP_DEG, abs=0.5) and abs(arm[0]) < 1e-6
+    assert p["head"][2] > p["chest"][2] > p["pelvis"][2] > max(p["left_lower_leg"][2], p["right_lower_leg"][2])
+    assert abs(p["chest"][0]) < 1e-6 and abs(p["head"][1]) < 1e-6  # upright, not leaning
+    assert pose.positions[:, 2].min() == pytest.approx(0.0, abs=1e-9)  # standing on the floor
+    assert 1.2 < p["head"][2] < 2.0
+
+
+def test_canonical_pose_keeps_every_bone_and_is_a_pose_of_the_skeleton(standing):
+    clip, jm, pose = standing
+    observed = local_transforms(clip.pose(0))[0][1:]
+    np.testing.assert_allclose(local_transforms(pose)[0][1:], observed, atol=1e-9)
+
+
+def test_canonical_pose_does_not_depend_on_the_frame_it_is_built_from(standing):
+    """Limbs, spine and head are set from the bones alone; only the pelvis's pitch (and so where the hip
+    joints sit under it) comes from the frame, as the lumbar spine bends in it."""
+    clip, jm, pose = standing
+    later = canonical_pose(clip.pose(clip.frames // 2), jm)
+
+    def shape(p):
+        at = {role: p.frame(name)[0] for role, name in jm.items()}
+        return np.concatenate([at[f"{s}_foot"] - at[f"{s}_upper_leg"] for s in ("left", "right")]
+                              + [at[f"{s}_lower_arm"] - at[f"{s}_upper_arm"] for s in ("left", "right")]
+                              + [at["head"] - at["chest"], at["left_upper_leg"] - at["right_upper_leg"]])
+
+    np.testing.assert_allclose(shape(later), shape(pose), atol=0.01)
+
+
+def test_every_clip_gets_a_humanly_plausible_body(standing):
+    clip, jm, pose = standing
+    body = fit_body(pose, jm, detailed=True)
+    m = body.measurements
+    height = m.height
+    assert 1.4 < height < 2.1, height
+    assert body.estimated == ()  # the shared clips' bodies are all in range by themselves
+    stature = {"thigh_radius": m.thigh_radius, "leg_y": m.leg_y, "shoulder_y": m.shoulder_y}
+    for name, value in stature.items():
+        low, high, _ = PLAUSIBLE_PER_STATURE[name]
+        assert low * height * 0.9 < value < high * height * 1.1, (name, value / height)
+    # a real trunk: chest about as wide as the shoulders, deeper than 8 cm; a torso longer than 10 cm
+    assert 0.12 < m.chest_ry < 0.22 and m.chest_rx > 0.08 and m.shoulder_z - m.waist_z > 0.15
+    radii = {v.name: v.radii for v in body.volumes.volumes}
+    assert radii["torso"][2] > 0.06 and radii["chest"][2] > max(radii["chest"][:2]) * 0.5
+
+
+def test_an_out_of_range_measurement_is_estimated_and_named():
+    clip = load_bvh(DATA / "cmu_131_01_walk_mjstyle.bvh")
+    first = clip.pose(0)
+    jm = auto_joint_map(clip.skeleton, first.positions)
+    pose = canonical_pose(first, jm)
+    # squeeze the shoulders together (a rig whose upper arms hang from the spine's centre line)
+    narrow = pose.positions.copy()
+    for side in ("left", "right"):
+        narrow[pose.skeleton.index(jm[f"{side}_upper_arm"]), 1] *= 0.2
+    from garment_sim_ros.body.skeleton import SkeletonPose
+
+    body = fit_body(SkeletonPose(pose.skeleton, narrow, pose.rotations), jm, detailed=True)
+    assert body.estimated == ("shoulder_y",)
+    typical = PLAUSIBLE_PER_STATURE["shoulder_y"][2]  # per stature (from the legs), close to the height
+    assert body.measurements.shoulder_y / body.measurements.height == pytest.approx(typical, rel=0.1)
+
+
+def test_skeleton_command_says_what_was_estimated(capsys):
+    from garment_sim_ros import cli
+    import json
+
+    assert cli.main(["skeleton", str(DATA / "cc_cmu_07_01_walk.bvh"), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["estimated"] == [] and info["joint_map"]["chest"] == "CC_Base_Spine02"
+    assert info["measurements"]["chest_ry"] > 0.12
+
+
+# ------------------------------------------------------------------------------------ clip edges
+def test_root_motion_is_never_estimated_across_the_clip_start_or_the_loop_seam():
+    source = bvh_source(str(DATA / "cmu_131_01_walk_mjstyle.bvh"), loop=True)
+    period = source.period
+    for t in (0.0, period - 1e-4, period, 3 * period + 0.5 * FRAME):
+        motion = source.motion(t)
+        # the seam jumps metres: a difference across it reads tens of m/s and thousands of m/s^2
+        assert np.linalg.norm(motion.velocity) < 3.0 and np.linalg.norm(motion.acceleration) < 50.0, t
+    once = bvh_source(str(DATA / "cmu_131_01_walk_mjstyle.bvh"), loop=False)
+    for t in (0.0, period):  # a looping clip's start and end are estimated as the clip's own, one-sided
+        np.testing.assert_allclose(source.motion(min(t, period - 1e-9)).velocity,
+                                   once.motion(min(t, period - 1e-9)).velocity, atol=1e-6)
+
+
+def test_a_clip_with_a_reference_frame_zero_starts_on_its_first_real_frame():
+    source = bvh_source(str(DATA / "cmu_01_01_jumps_turnaround.bvh"))
+    kept = bvh_source(str(DATA / "cmu_01_01_jumps_turnaround.bvh"), keep_first_frame=True)
+    assert source.dropped_reference_frame and not kept.dropped_reference_frame
+    np.testing.assert_allclose(source.pose(0.0).positions, kept.pose(1.0 / 120.0).positions, atol=1e-5)
+    assert np.linalg.norm(source.motion(0.0).acceleration) < 50.0
+
+
+# ------------------------------------------------------------------------------------ the node's path
+def feed(buffer: PoseBuffer, source, t: float, names=None) -> None:
+    translations, rotations = source.local_transforms(t)
+    names = names or source.skeleton.names
+    for i, name in enumerate(names):
+        parent = source.skeleton.parents[i]
+        buffer.add_transform(t, "world" if parent < 0 else names[parent], name, translations[i], rotations[i])
+
+
+def test_the_node_stands_a_character_creator_rig_up_from_tf_as_the_clip_path_does():
+    source = bvh_source(str(DATA / "cc_cmu_07_01_walk.bvh"))
+    buffer = PoseBuffer("world", max_age_s=0.5)
+    loop = CharacterLoop(buffer, DEFAULT_PARAMS, ["one_piece"], 1.0, catch_up_wall_s=math.inf)
+    t = 0.0
+    while loop.status != Status.RUNNING and t < 1.0:
+        feed(buffer, source, t)
+        loop.frame(t)
+        t += FRAME
+    assert loop.status == Status.RUNNING, loop.detail
+    node_body = loop.character.body
+    clip_body = fit_body(source.rest_pose, source.joint_map, detailed=True)
+    assert node_body.joint_map == clip_body.joint_map
+    for a, b in zip(node_body.volumes.volumes, clip_body.volumes.volumes):
+        np.testing.assert_allclose(a.radii, b.radii, rtol=0.02, err_msg=a.name)
+    assert node_body.measurements.chest_ry == pytest.approx(clip_body.measurements.chest_ry, rel=0.02)
+
+
+def test_the_node_waits_while_the_bones_still_change_length():
+    source = bvh_source(str(DATA / "cmu_131_01_walk_mjstyle.bvh"))
+    buffer = PoseBuffer("world", max_age_s=0.5)
+    loop = CharacterLoop(buffer, DEFAULT_PARAMS, ["pants"], 1.0, catch_up_wall_s=math.inf)
+    names = source.skeleton.names
+    knee = names.index(source.joint_map["left_lower_leg"])
+    t = 0.0
+    for k in range(30):  # a retargeting rig still scaling its thigh: 1 cm per frame
+        translations, rotations = source.local_transforms(t)
+        translations = translations.copy()
+        translations[knee] *= 1.0 + 0.03 * k
+        for i, name in enumerate(names):
+            parent = source.skeleton.parents[i]
+            buffer.add_transform(t, "world" if parent < 0 else names[parent], name, translations[i], rotations[i])
+        loop.frame(t)
+        t += FRAME
+    assert loop.character is None and loop.counts["bones_changing"] > 0
+    assert "hold still" in loop.detail and names[knee] in loop.detail
+    for _ in range(20):  # the bones settle: it dresses
+        feed(buffer, source, t)
+        loop.frame(t)
+        t += FRAME
+    assert loop.status == Status.RUNNING, loop.detail
+
+
+def test_yaw_of_the_canonical_pose_faces_forward(standing):
+    clip, jm, pose = standing
+    from garment_sim_ros.body.root import root_frame
+
+    _, yaw = root_frame(pose, jm)
+    assert abs(yaw) < 1e-6 and np.allclose(yaw_quat(yaw), [0, 0, 0, 1])
