@@ -22,8 +22,8 @@ from garment_sim_ros.quality import (TARGETS, GarmentMeter, LimbTubes, report_sc
                                      segments_through_triangles)
 from garment_sim_ros.transforms import IDENTITY_QUAT, quat_from_axis_angle, quat_normalize, quat_to_matrix
 
-MOCAP = Path(__file__).resolve().parents[2] / "shared" / "mocap"
-CLIP = MOCAP / "xia_old_13_000.bvh"  # the shortest shared clip
+MOCAP = Path(__file__).resolve().parent / "data"  # the shared real clips, copied unchanged
+CLIP = MOCAP / "xia_old_13_000.bvh"  # the shortest real clip
 
 
 # ----------------------------------------------------------------------------- segment through triangle
