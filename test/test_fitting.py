@@ -13,7 +13,8 @@ from garment_sim_ros import cli
 from garment_sim_ros.body.bvh import load_bvh
 from garment_sim_ros.body.canonical import canonical_pose
 from garment_sim_ros.body.fitting import (
-    BASIC_VOLUMES, DETAILED_VOLUMES, BodyConfigError, fit_body, load_body_overrides,
+    BASIC_VOLUMES, DETAILED_VOLUMES, LEG_PER_STATURE, THIGH_MID_PLANE_GAP_PER_STATURE, BodyConfigError, fit_body,
+    load_body_overrides,
 )
 from garment_sim_ros.body.joint_map import REQUIRED_ROLES, auto_joint_map
 from garment_sim_ros.body.procedural import WALKER_JOINT_MAP, ProceduralCharacter
@@ -193,7 +194,10 @@ def test_walker_body_hand_computed():
     body = fit_body(rest, WALKER_JOINT_MAP)
     thigh = body.volumes.volumes[body.volumes.names().index("left_upper_leg")]
     assert thigh.frame == "left_hip"
-    np.testing.assert_allclose(thigh.radii[:2], [0.084, 0.084])
+    # Sideways it stops THIGH_MID_PLANE_GAP_PER_STATURE x stature short of the mid-plane (hip at y = 0.09).
+    knee, ankle = (rest.frame(n)[0] for n in ("left_knee", "left_ankle"))
+    stature = (0.42 + np.linalg.norm(knee - ankle)) / LEG_PER_STATURE
+    np.testing.assert_allclose(thigh.radii[:2], [0.084, min(0.084, 0.09 - THIGH_MID_PLANE_GAP_PER_STATURE * stature)])
     np.testing.assert_allclose(thigh.offset_position, [0.0, 0.0, -0.21], atol=1e-12)
     # Ellipsoid tapering to 0.7 of its radius at the joints: a_z = 0.21 / sqrt(1 - 0.49).
     assert thigh.radii[2] == pytest.approx(0.21 / np.sqrt(0.51))

@@ -91,19 +91,21 @@ def leg_rings_off(solver) -> int:
 
 
 def points_inside_leg_radius(solver, names: list[str], tolerance: float = TOLERANCE_M) -> int:
-    """Free points closer to a leg volume's axis than its cross-section radius at their height less
-    ``tolerance``, where they are within the volume's cut (limb volumes are round: a_x = a_y)."""
+    """Free points inside a leg volume's cross-section at their height shrunk by ``tolerance``, where
+    they are within the volume's cut (limb sections are ellipses: narrower sideways where the legs are
+    close, see ``body.fitting.THIGH_MID_PLANE_GAP_PER_STATURE``)."""
     free = solver.constants.inv_mass > 0.0
     x = solver.state.positions[free]
     count = 0
     for name in LEG_VOLUMES:
         v = names.index(name)
-        ax, _, az = solver.volumes.radii[v]
+        ax, ay, az = solver.volumes.radii[v]
         low, high = solver.volumes.cuts[v]
         local = local_points(solver, v, x)
         within = (local[:, 2] >= low) & (local[:, 2] <= high) & (np.abs(local[:, 2]) < az)
-        section = ax * np.sqrt(np.clip(1.0 - (local[:, 2] / az) ** 2, 0.0, None))
-        count += int(np.count_nonzero(within & (np.hypot(local[:, 0], local[:, 1]) < section - tolerance)))
+        scale = np.sqrt(np.clip(1.0 - (local[:, 2] / az) ** 2, 0.0, None))
+        rx, ry = np.maximum(ax * scale - tolerance, 1e-9), np.maximum(ay * scale - tolerance, 1e-9)
+        count += int(np.count_nonzero(within & ((local[:, 0] / rx) ** 2 + (local[:, 1] / ry) ** 2 < 1.0)))
     return count
 
 

@@ -85,6 +85,11 @@ CHEST_DEPTH_PER_WIDTH = 0.75
 JOINT_TAPER = 0.7
 TRUNK_TAPER = 0.9
 CUT_PAST_JOINT = 0.15  # fraction of the half length
+# Thighs and shins stop this far short of the body's mid-plane (per stature; 12 mm at 1.75 m), narrower
+# sideways than deep where
+# the hip joints are close: real thighs flatten against each other there, and the trousers' inner seams
+# must pass between them (CMU's hip joints are 6-7 cm from the mid-plane, their thighs 8 cm in radius).
+THIGH_MID_PLANE_GAP_PER_STATURE = 0.007
 
 # Human ranges (low, high) and the estimate used outside them, per stature (the stature is read from the
 # legs): radii at mid-bone, half spacings of the hip and shoulder joints, the head. The estimates are
@@ -250,9 +255,11 @@ class _Fit:
             end = start + fallback_length * _unit(start - self.pose.positions[parent])
         return start, end
 
-    def limb(self, name: str, start: np.ndarray, end: np.ndarray, radius: float) -> Volume:
+    def limb(self, name: str, start: np.ndarray, end: np.ndarray, radius: float, width: float | None = None) -> Volume:
+        """A limb volume of ``radius`` (m, mid-bone), narrower sideways if ``width`` (its half width) is less."""
         length = float(np.linalg.norm(end - start))
-        return self.volume(name, name, start, end - start, 0.0, length, radius, radius, JOINT_TAPER)
+        ry = radius if width is None else min(radius, width)
+        return self.volume(name, name, start, end - start, 0.0, length, radius, ry, JOINT_TAPER)
 
 
 class _Plausibility:
@@ -286,21 +293,24 @@ def _fit_volumes(fit: _Fit, detailed: bool) -> tuple[list[Volume], dict[str, flo
     stature = (np.mean(thigh) + np.mean(shin)) / LEG_PER_STATURE
     plausible = _Plausibility(stature)
     hip_joint_z = float(np.mean([h[2] for h in hip_joints]))
+    leg_x = float(np.mean([h[0] for h in hip_joints]))
     leg_y = plausible("leg_y", float(np.mean([abs(h[1]) for h in hip_joints])))
     shoulders = [fit.local(fit.world(f"{s}_upper_arm")) for s in sides]
     shoulder_z = float(np.mean([p[2] for p in shoulders]))
     shoulder_y = plausible("shoulder_y", float(np.mean([abs(p[1]) for p in shoulders])))
 
     def limb(role: str, next_role: str | None, measurement: str, radius_per_length: float,
-             fallback_length: float) -> Volume:
+             fallback_length: float, width: float | None = None) -> Volume:
         start, end = fit.bone(role, next_role, fallback_length)
         radius = plausible(measurement, radius_per_length * float(np.linalg.norm(end - start)))
-        return fit.limb(role, start, end, radius)
+        return fit.limb(role, start, end, radius, width)
 
     volumes: list[Volume] = []
     for s, t, sh in zip(sides, thigh, shin):
-        volumes.append(limb(f"{s}_upper_leg", f"{s}_lower_leg", "thigh_radius", THIGH_RADIUS_PER_LENGTH, t))
-        volumes.append(limb(f"{s}_lower_leg", f"{s}_foot", "shin_radius", SHIN_RADIUS_PER_LENGTH, sh))
+        volumes.append(limb(f"{s}_upper_leg", f"{s}_lower_leg", "thigh_radius", THIGH_RADIUS_PER_LENGTH, t,
+                            width=leg_y - THIGH_MID_PLANE_GAP_PER_STATURE * stature))
+        volumes.append(limb(f"{s}_lower_leg", f"{s}_foot", "shin_radius", SHIN_RADIUS_PER_LENGTH, sh,
+                            width=leg_y - THIGH_MID_PLANE_GAP_PER_STATURE * stature))
     for s in sides:
         volumes.append(limb(f"{s}_upper_arm", f"{s}_lower_arm", "upper_arm_radius", UPPER_ARM_RADIUS_PER_LENGTH,
                             UPPER_ARM_PER_STATURE * stature))
@@ -311,9 +321,12 @@ def _fit_volumes(fit: _Fit, detailed: bool) -> tuple[list[Volume], dict[str, flo
     waist_rise = WAIST_ABOVE_HIP_JOINT * stature
     pelvis_a_z = waist_rise / math.sqrt(1.0 - WAIST_PER_HIP_WIDTH**2)
     crotch_drop = CROTCH_BELOW_HIP_JOINT * stature
-    centre = fit.origin + quat_rotate(fit.root_rotation, np.array([0.0, 0.0, hip_joint_z]))
+    # Deep enough to cover the thigh tops in front and the root joint's line (the spine's) behind: rigs
+    # put the root joint anywhere from above the hip joints to 6 cm behind them.
+    centre = fit.origin + quat_rotate(fit.root_rotation, np.array([0.5 * leg_x, 0.0, hip_joint_z]))
     volumes.append(fit.attach("pelvis", ELLIPSOID, "pelvis", centre, fit.up,
-                              (HIP_DEPTH_PER_WIDTH * hip_ry, hip_ry, pelvis_a_z), (-crotch_drop, waist_rise)))
+                              (HIP_DEPTH_PER_WIDTH * hip_ry + 0.5 * abs(leg_x), hip_ry, pelvis_a_z),
+                              (-crotch_drop, waist_rise)))
 
     # Torso (lower back to chest joint) and chest (chest joint to the shoulders or the neck).
     waist_ry = WAIST_PER_HIP_WIDTH * hip_ry
@@ -360,7 +373,7 @@ def _fit_volumes(fit: _Fit, detailed: bool) -> tuple[list[Volume], dict[str, flo
                                     FOREARM_PER_STATURE * stature))
             if f"{s}_foot" in fit.map:
                 volumes.append(_foot(fit, s))
-    levels = {"stature": stature, "hip_joint_z": hip_joint_z, "leg_y": leg_y, "thigh": float(np.mean(thigh)),
+    levels = {"stature": stature, "hip_joint_z": hip_joint_z, "leg_x": leg_x, "leg_y": leg_y, "thigh": float(np.mean(thigh)),
               "shin": float(np.mean(shin)), "shoulder_z": shoulder_z, "shoulder_y": shoulder_y}
     return volumes, levels, plausible.estimated
 
@@ -412,18 +425,22 @@ def _measure(fit: _Fit, volumes: VolumeSet, levels: dict[str, float]) -> BodyMea
         axis = quat_rotate(quat_conjugate(fit.root_rotation), quat_rotate(rotations[k], np.array([0.0, 0.0, 1.0])))
         return by_name[name], centre, axis
 
-    def half_widths(z: float) -> tuple[float, float]:
-        """Largest half depth and half width of the trunk volumes' cross-sections at height z."""
-        rx = ry = 0.0
+    def section(z: float) -> tuple[float, float, float]:
+        """Centre (x), half depth and half width of what the trunk volumes' cross-sections at height z span."""
+        front, back, ry = -math.inf, math.inf, 0.0
         for name in ("pelvis", "torso", "chest"):
             volume, centre, axis = placed(name)
             zl = (z - centre[2]) / max(axis[2], 1e-6)
             if volume.cut[0] <= zl <= volume.cut[1]:
                 f = math.sqrt(max(0.0, 1.0 - (zl / volume.radii[2]) ** 2))
-                rx, ry = max(rx, f * volume.radii[0]), max(ry, f * volume.radii[1])
-        return rx, ry
+                x = centre[0] + zl * axis[0]
+                front, back = max(front, x + f * volume.radii[0]), min(back, x - f * volume.radii[0])
+                ry = max(ry, f * volume.radii[1])
+        if ry == 0.0:
+            return 0.0, 0.0, 0.0
+        return 0.5 * (front + back), 0.5 * (front - back), ry
 
-    def section(name: str, zl: float) -> float:
+    def limb_section(name: str, zl: float) -> float:
         volume = by_name[name]
         return max(volume.radii[:2]) * math.sqrt(max(0.0, 1.0 - (zl / volume.radii[2]) ** 2))
 
@@ -438,13 +455,13 @@ def _measure(fit: _Fit, volumes: VolumeSet, levels: dict[str, float]) -> BodyMea
     thighs = [by_name[f"{s}_upper_leg"] for s in ("left", "right")]
     shins = [by_name[f"{s}_lower_leg"] for s in ("left", "right")]
     # Bone volumes are centred at mid-bone: the knee is at +thigh/2 of the thigh's, the ankle at +shin/2.
-    knee_radius = max(max(max(v.radii[:2]) for v in shins), max(section(v.name, 0.5 * levels["thigh"]) for v in thighs))
-    ankle_radius = max(section(v.name, 0.5 * levels["shin"]) for v in shins)
+    knee_radius = max(max(max(v.radii[:2]) for v in shins), max(limb_section(v.name, 0.5 * levels["thigh"]) for v in thighs))
+    ankle_radius = max(limb_section(v.name, 0.5 * levels["shin"]) for v in shins)
     head, head_centre, _ = placed("head")
     height = float(head_centre[2] + head.radii[0]) - (ankle_z - ANKLE_HEIGHT_PER_STATURE * stature)
-    waist_rx, waist_ry = half_widths(waist_z)
-    hip_rx, hip_ry = half_widths(hip_z)
-    chest_rx, chest_ry = half_widths(chest_z)
+    waist_x, waist_rx, waist_ry = section(waist_z)
+    hip_x, hip_rx, hip_ry = section(hip_z)
+    chest_x, chest_rx, chest_ry = section(chest_z)
     return BodyMeasurements(**{k: float(v) for k, v in dict(
         height=height,
         waist_z=waist_z, waist_rx=waist_rx, waist_ry=waist_ry,
@@ -454,6 +471,7 @@ def _measure(fit: _Fit, volumes: VolumeSet, levels: dict[str, float]) -> BodyMea
         knee_z=knee_z, knee_radius=float(knee_radius), ankle_z=ankle_z, ankle_radius=float(ankle_radius),
         chest_z=chest_z, chest_rx=chest_rx, chest_ry=chest_ry,
         shoulder_z=levels["shoulder_z"], shoulder_y=levels["shoulder_y"],
+        waist_x=waist_x, hip_x=hip_x, chest_x=chest_x, leg_x=levels["leg_x"],
     ).items()})
 
 

@@ -32,6 +32,12 @@ class BodyMeasurements:
     chest_ry: float  # chest half width, m
     shoulder_z: float  # shoulder joint height, m
     shoulder_y: float  # lateral offset of each shoulder joint, m
+    # Forward offsets (x) of the trunk's cross-sections' centres and of the leg axes, m. Rigs differ in
+    # where the root joint sits: CMU's hip joints are 4-6 cm in front of it, the spine above it.
+    waist_x: float = 0.0
+    hip_x: float = 0.0
+    chest_x: float = 0.0
+    leg_x: float = 0.0
 
     def __post_init__(self):
         for f in fields(self):

@@ -75,19 +75,17 @@ def _tube(levels: list[tuple[float, float, float, float, float]], around: int):
     return vertices, triangles, rings
 
 
-def _profile(z_top: float, z_bottom: float, count: int, radii) -> list[tuple[float, float, float, float, float]]:
-    """``count`` levels from z_top to z_bottom; ``radii(z) -> (rx, ry)``."""
+def _profile(z_top: float, z_bottom: float, count: int, section) -> list[tuple[float, float, float, float, float]]:
+    """``count`` levels from z_top to z_bottom; ``section(z) -> (centre_x, rx, ry)``."""
     zs = np.linspace(z_top, z_bottom, count)
-    return [(0.0, 0.0, float(z), *map(float, radii(z))) for z in zs]
+    return [(float(cx), 0.0, float(z), float(rx), float(ry)) for z in zs for cx, rx, ry in [section(z)]]
 
 
-def _interp_radii(points: list[tuple[float, float, float]]):
-    """Piecewise-linear (rx, ry) against z from (z, rx, ry) knots."""
+def _interp_section(points: list[tuple[float, float, float, float]]):
+    """Piecewise-linear (centre_x, rx, ry) against z from (z, centre_x, rx, ry) knots."""
     knots = sorted(points)
     zs = [p[0] for p in knots]
-    rxs = [p[1] for p in knots]
-    rys = [p[2] for p in knots]
-    return lambda z: (np.interp(z, zs, rxs), np.interp(z, zs, rys))
+    return lambda z: tuple(np.interp(z, zs, [p[k] for p in knots]) for k in (1, 2, 3))
 
 
 def _counts(resolution: float, around: int, levels: int) -> tuple[int, int]:
@@ -99,10 +97,10 @@ def _counts(resolution: float, around: int, levels: int) -> tuple[int, int]:
 def _skirt(name: str, body: BodyMeasurements, resolution: float, hem_z: float, flare: float,
            around: int, levels: int) -> GarmentMesh:
     ease = 0.012  # cloth stands this far off the body at the waist and hips
-    radii = _interp_radii([
-        (body.waist_z, body.waist_rx + ease, body.waist_ry + ease),
-        (body.hip_z, body.hip_rx + ease, body.hip_ry + ease),
-        (hem_z, (body.hip_rx + ease) * flare, (body.hip_ry + ease) * flare),
+    radii = _interp_section([
+        (body.waist_z, body.waist_x, body.waist_rx + ease, body.waist_ry + ease),
+        (body.hip_z, body.hip_x, body.hip_rx + ease, body.hip_ry + ease),
+        (hem_z, body.leg_x, (body.hip_rx + ease) * flare, (body.hip_ry + ease) * flare),
     ])
     n_around, n_levels = _counts(resolution, around, levels)
     vertices, triangles, rings = _tube(_profile(body.waist_z, hem_z, n_levels, radii), n_around)
@@ -121,13 +119,13 @@ def long_skirt(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) 
 
 def one_piece(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> GarmentMesh:
     """A strapless one-piece dress from under the arms to below the knee; its top edge is carried by the chest."""
-    ease = 0.012
+    ease = 0.015  # a little more than the skirts: the chest volume swells between the knots below
     hem_z = body.knee_z - 0.15 * (body.knee_z - body.ankle_z)
-    radii = _interp_radii([
-        (body.chest_z, body.chest_rx + ease, body.chest_ry + ease),
-        (body.waist_z, body.waist_rx + ease, body.waist_ry + ease),
-        (body.hip_z, body.hip_rx + ease, body.hip_ry + ease),
-        (hem_z, (body.hip_rx + ease) * 1.45, (body.hip_ry + ease) * 1.45),
+    radii = _interp_section([
+        (body.chest_z, body.chest_x, body.chest_rx + ease, body.chest_ry + ease),
+        (body.waist_z, body.waist_x, body.waist_rx + ease, body.waist_ry + ease),
+        (body.hip_z, body.hip_x, body.hip_rx + ease, body.hip_ry + ease),
+        (hem_z, body.leg_x, (body.hip_rx + ease) * 1.45, (body.hip_ry + ease) * 1.45),
     ])
     n_around, n_levels = _counts(resolution, 48, 15)
     vertices, triangles, rings = _tube(_profile(body.chest_z, hem_z, n_levels, radii), n_around)
@@ -150,10 +148,10 @@ def pants(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> Ga
     n_leg_levels = max(3, round(14 * resolution))
     hem_z = body.ankle_z + 0.05
 
-    hip_radii = _interp_radii([
-        (body.waist_z, body.waist_rx + ease, body.waist_ry + ease),
-        (body.hip_z, body.hip_rx + ease, body.hip_ry + ease),
-        (body.crotch_z, body.hip_rx + ease, body.hip_ry + ease),
+    hip_radii = _interp_section([
+        (body.waist_z, body.waist_x, body.waist_rx + ease, body.waist_ry + ease),
+        (body.hip_z, body.hip_x, body.hip_rx + ease, body.hip_ry + ease),
+        (body.crotch_z, body.hip_x, body.hip_rx + ease, body.hip_ry + ease),
     ])
     # Ring phase: index 0 at the front centre (+x), index `half` at the back centre.
     hip_levels = _profile(body.waist_z, body.crotch_z - _CROTCH_EASE, n_hip_levels, hip_radii)
@@ -165,9 +163,9 @@ def pants(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> Ga
     crotch = hip_rings[-1]
     front, back = crotch[0], crotch[half]
     crotch_z = hip_levels[-1][2]
-    rx_crotch = hip_levels[-1][3]
+    cx_crotch, rx_crotch = hip_levels[-1][0], hip_levels[-1][3]
     # Seam from back to front along x at the crotch height.
-    seam_x = np.linspace(-rx_crotch, rx_crotch, seam + 2)[1:-1]
+    seam_x = cx_crotch + np.linspace(-rx_crotch, rx_crotch, seam + 2)[1:-1]
     vertices.append(np.stack([seam_x, np.zeros(seam), np.full(seam, crotch_z)], axis=1))
     seam_ids = np.arange(count, count + seam)
     count += seam
@@ -179,7 +177,7 @@ def pants(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> Ga
     for side, sign, top in (("left", 1.0, left_top), ("right", -1.0, right_top)):
         # Lower rings: circles about the leg axis, starting at the angle of the top ring's first vertex.
         top_xy = np.concatenate(vertices)[top][:, :2]
-        start = np.arctan2(top_xy[0, 1] - sign * body.leg_y, top_xy[0, 0])
+        start = np.arctan2(top_xy[0, 1] - sign * body.leg_y, top_xy[0, 0] - body.leg_x)
         rings = [top]
         for k in range(1, n_leg_levels + 1):
             z = crotch_z + (hem_z - crotch_z) * k / n_leg_levels
@@ -189,7 +187,7 @@ def pants(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> Ga
             # The legs' inner sides must not cross the body's mid-plane into the other leg.
             ry = min(radius, 0.5 * (body.leg_y + radius - _LEG_GAP))
             centre_y = max(body.leg_y, _LEG_GAP + ry)
-            vertices.append(_ring(0.0, sign * centre_y, z, radius, ry, leg_around, phase=start))
+            vertices.append(_ring(body.leg_x, sign * centre_y, z, radius, ry, leg_around, phase=start))
             rings.append(np.arange(count, count + leg_around))
             count += leg_around
         triangles.extend(_band(rings[i], rings[i + 1]) for i in range(len(rings) - 1))
