@@ -224,3 +224,23 @@ def test_yaw_of_the_canonical_pose_faces_forward(standing):
 
     _, yaw = root_frame(pose, jm)
     assert abs(yaw) < 1e-6 and np.allclose(yaw_quat(yaw), [0, 0, 0, 1])
+
+
+def test_a_headless_run_dresses_again_at_a_loop_seam_instead_of_dragging_the_garment():
+    from garment_sim_ros.commands.simulate import make_character, simulate_frames
+    from garment_sim_ros.params import preset
+
+    source = bvh_source(str(DATA / "xia_angry_13_000.bvh"), loop=True)
+    character = make_character(source, ["short_skirt"], preset("si"), 1.0)
+    times = np.arange(0.0, source.period + 0.2, FRAME)
+    dressed, last = [], None
+    for t, pose, reports in simulate_frames(source, character, times):
+        if reports is None:
+            dressed.append(t)
+        last = pose
+    assert len(dressed) == 2 and 0.0 <= dressed[1] - source.period < FRAME
+    # the skirt is on the character after the seam's jump (the clip walks ~1 m and starts again)
+    pelvis = last.frame(source.joint_map["pelvis"])[0]
+    centre = character.world_positions()[0].mean(axis=0)
+    assert np.linalg.norm((centre - pelvis)[:2]) < 0.1
+    assert character.max_penetration() < 1e-3

@@ -55,16 +55,22 @@ def parse_garments(text: str) -> list[str]:
 
 def simulate_frames(source, character, times):
     """Dress ``character`` on ``source`` at ``times[0]``, then step it to each later time. Yields
-    ``(t, pose, reports)`` per time, ``reports`` None for the dressing: the one run loop of
-    ``simulate`` and ``snapshot``."""
+    ``(t, pose, reports)`` per time, ``reports`` None for a dressing: the one run loop of ``simulate``,
+    ``snapshot`` and ``evaluate``. A looping clip's seam is a teleport, as in the node: the garments are
+    dressed again on the first pose after it instead of being dragged across the jump."""
     times = iter(times)
     t = next(times)
     pose = source.pose(t)
     character.dress(pose, t, source.motion(t))
     yield t, pose, None
-    for t in times:
-        pose = source.pose(t)
-        yield t, pose, character.step(pose, source.motion(t), t)
+    for t_next in times:
+        pose = source.pose(t_next)
+        if source.period is not None and math.floor(t_next / source.period) != math.floor(t / source.period):
+            character.dress(pose, t_next, source.motion(t_next))
+            yield t_next, pose, None
+        else:
+            yield t_next, pose, character.step(pose, source.motion(t_next), t_next)
+        t = t_next
 
 
 def run_source(args):
