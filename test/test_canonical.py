@@ -244,3 +244,21 @@ def test_a_headless_run_dresses_again_at_a_loop_seam_instead_of_dragging_the_gar
     centre = character.world_positions()[0].mean(axis=0)
     assert np.linalg.norm((centre - pelvis)[:2]) < 0.1
     assert character.max_penetration() < 1e-3
+
+
+@pytest.mark.parametrize("clip_name", CLIPS)
+def test_right_after_dressing_no_free_point_is_inside_the_body(clip_name):
+    """Dressing goes through the canonical pose, where every garment clears every volume, onto the clip's
+    first pose with collision handling all the way: every garment starts outside the body on every clip."""
+    from garment_sim_ros.cloth.solver import FrameReport
+    from garment_sim_ros.commands.simulate import make_character
+    from garment_sim_ros.params import preset
+
+    source = bvh_source(str(DATA / clip_name), loop=False)
+    pose = source.pose(0.0)
+    for garment in GARMENT_NAMES:
+        character = make_character(source, [garment], preset("si"), 1.0)
+        character.dress(pose, 0.0, source.motion(0.0))
+        report = FrameReport()
+        character.measure([report], pose)
+        assert report.max_depth_m < 1e-3, (garment, report.max_depth_m)

@@ -76,20 +76,6 @@ class _Tree:
             path.append(parent)
         return path[::-1]
 
-    def ancestors(self, i: int) -> list[int]:
-        found = []
-        while self.parents[i] >= 0:
-            i = self.parents[i]
-            found.append(i)
-        return found
-
-    def common_ancestor(self, a: int, b: int) -> int:
-        above_a = {a, *self.ancestors(a)}
-        for j in (b, *self.ancestors(b)):
-            if j in above_a:
-                return j
-        raise CanonicalPoseError("the skeleton has more than one root")
-
     def distance(self, a: int, b: int) -> float:
         return float(np.linalg.norm(self.pose.positions[a] - self.pose.positions[b]))
 
@@ -110,7 +96,7 @@ def _bone_rules(tree: _Tree, index: Mapping[str, int]) -> dict[int, tuple[list[i
                 rules[joint] = ([target], direction)
 
     pelvis, head, chest = index["pelvis"], index["head"], index["chest"]
-    top = tree.common_ancestor(pelvis, head)
+    top = tree.pose.skeleton.common_ancestor(pelvis, head)
     along(tree.chain(top, head), UP)  # spine, chest, neck: straight up from where the legs meet the trunk
     rules.pop(pelvis, None)  # the hips, not a bone to the spine, set the pelvis (level, see _pair_rules)
     head_children = tree.leaf_targets(head)

@@ -213,11 +213,7 @@ class _Tree:
         return float(np.linalg.norm(self.positions[i] - self.positions[j])) <= self.tolerance
 
     def ancestors(self, i: int) -> list[int]:
-        chain = []
-        while self.parents[i] >= 0:
-            i = self.parents[i]
-            chain.append(i)
-        return chain
+        return self.skeleton.ancestors(i)
 
     def walk_up(self, i: int) -> int | None:
         """The nearest ancestor that starts a segment ending at ``i``: skip helpers and co-located joints."""
@@ -254,11 +250,10 @@ class _Tree:
         return min(found, key=lambda i: self.depth[i]) if found else None
 
     def lowest_common_ancestor(self, a: int, b: int) -> int:
-        seen = {a, *self.ancestors(a)}
-        for j in [b, *self.ancestors(b)]:
-            if j in seen:
-                return j
-        raise JointMapError("the skeleton has more than one root")
+        try:
+            return self.skeleton.common_ancestor(a, b)
+        except ValueError:
+            raise JointMapError("the skeleton has more than one root") from None
 
 
 def _map_limb(tree: _Tree, side: str, limb: str) -> dict[str, int]:

@@ -40,6 +40,22 @@ class Skeleton:
     def children(self, i: int) -> list[int]:
         return [j for j, p in enumerate(self.parents) if p == i]
 
+    def ancestors(self, i: int) -> list[int]:
+        """Joint ``i``'s parent, its parent's parent, ... up to the root."""
+        chain = []
+        while self.parents[i] >= 0:
+            i = self.parents[i]
+            chain.append(i)
+        return chain
+
+    def common_ancestor(self, a: int, b: int) -> int:
+        """The deepest joint with both ``a`` and ``b`` below it (or one of them)."""
+        above_a = {a, *self.ancestors(a)}
+        for j in (b, *self.ancestors(b)):
+            if j in above_a:
+                return j
+        raise ValueError(f"Skeleton: joints {self.names[a]!r} and {self.names[b]!r} are in different trees")
+
 
 @dataclass
 class SkeletonPose:
