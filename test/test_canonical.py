@@ -262,3 +262,29 @@ def test_right_after_dressing_no_free_point_is_inside_the_body(clip_name):
         report = FrameReport()
         character.measure([report], pose)
         assert report.max_depth_m < 1e-3, (garment, report.max_depth_m)
+
+
+def test_a_guard_recovery_dresses_through_the_canonical_pose_and_the_next_frame_is_clean():
+    """Issue 11, item 5: a garment that ran away is re-dressed from the canonical pose onto the current
+    pose with collision handling, reported, and on the next frame it is outside the body, no limb bone
+    crosses it and the trouser legs are round the legs."""
+    from garment_sim_ros.commands.simulate import make_character
+    from garment_sim_ros.params import preset
+
+    source = bvh_source(str(DATA / "xia_strutting_01_000.bvh"), loop=False)
+    character = make_character(source, ["pants"], preset("si"), 1.0)
+    character.dress(source.pose(0.0), 0.0, source.motion(0.0))
+    t = 0.0
+    for _ in range(10):
+        t += FRAME
+        character.step(source.pose(t), source.motion(t), t)
+    solver = character.solvers[0]
+    free = solver.constants.inv_mass > 0.0
+    solver.state.positions[free, 0] += 2.0  # a runaway: every free point 2 m ahead of the waistband
+    t += FRAME
+    reports = character.step(source.pose(t), source.motion(t), t)
+    assert reports[0].recovery == "refitted"
+    t += FRAME
+    report = character.step(source.pose(t), source.motion(t), t)[0]
+    assert report.recovery == ""
+    assert report.max_depth_m < 1e-3 and report.bones_through == 0 and report.legs_off == 0
