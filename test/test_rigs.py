@@ -207,3 +207,35 @@ def test_canonical_pose_stands_and_dresses(written, convention, bind, static_roo
     for name in GARMENT_NAMES:
         mesh = build_garment(name, body.measurements)
         assert len(mesh.triangles) and np.isfinite(mesh.vertices).all(), name
+
+
+# --- the node's path: the same rigs on /tf ------------------------------------------------------
+
+@pytest.mark.parametrize("convention", CONVENTIONS)
+def test_the_node_dresses_every_convention_from_tf_as_a_game_export_publishes_it(convention):
+    """Bones along +X, the bind in the rotations, a static root at the floor (a common Unity/game
+    export, which the identity-rotation rest pose used to collapse onto one line): from what /tf shows,
+    the node maps the rig, stands it up and dresses it, with the body the clip path fits."""
+    import math
+
+    from garment_sim_ros.body.pose_buffer import PoseBuffer
+    from garment_sim_ros.params import DEFAULT_PARAMS
+    from garment_sim_ros.ros.character_loop import CharacterLoop, Status
+
+    rig = build_rig(convention, "x", static_root=True)
+    motion = rig.walk(frames=12, fps=60.0)
+    names, parents = rig.skeleton.names, rig.skeleton.parents
+    buffer = PoseBuffer("world", max_age_s=0.5)
+    loop = CharacterLoop(buffer, DEFAULT_PARAMS, ["one_piece"], 1.0, catch_up_wall_s=math.inf)
+    for f in range(len(motion.poses)):
+        t = f * motion.frame_time
+        for i, name in enumerate(names):
+            buffer.add_transform(t, "world" if parents[i] < 0 else names[parents[i]], name,
+                                 motion.translations[f, i], motion.rotations[f, i])
+        loop.frame(t)
+    assert loop.status == Status.RUNNING, loop.detail
+    body = loop.character.body
+    assert body.joint_map == rig.joint_map and body.estimated == ()
+    expected = fit_body(canonical_pose(motion.poses[0], rig.joint_map), rig.joint_map, detailed=True)
+    np.testing.assert_allclose(body.volumes.radii, expected.volumes.radii, rtol=0.02)
+    assert 1.6 < body.measurements.height < 1.95
