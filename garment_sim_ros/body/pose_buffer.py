@@ -42,7 +42,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ..transforms import IDENTITY_QUAT, compose, inverse, quat_slerp
-from .root import root_frame
+from .root import fit_root_kinematics, root_frame
 from .skeleton import Skeleton, SkeletonPose, compose_tree
 
 _UNIT_SILENT = 1e-3  # |q| within this of 1 is rounding: normalised without being counted
@@ -496,17 +496,9 @@ class PoseBuffer:
             zero = np.zeros(3)
             return RootMotion(now.status, dt, len(window), position, yaw, zero, zero, 0.0, 0.0, now.detail)
         positions, rotations, _, _ = self._compose(now.pose.skeleton.names, window)
-        yaws = np.unwrap([
-            root_frame(SkeletonPose(now.pose.skeleton, positions[:, k], rotations[:, k]), roles)[1]
-            for k in range(len(window))
-        ])
-        degree = min(2, len(window) - 1)
-        design = np.vander(window - float(stamp_s), degree + 1, increasing=True)
-        coefficients = np.linalg.lstsq(design, np.column_stack([positions[0], yaws]), rcond=None)[0]
-        velocity, yaw_rate = coefficients[1, :3], float(coefficients[1, 3])
-        if degree == 2:
-            acceleration, yaw_acceleration = 2.0 * coefficients[2, :3], 2.0 * float(coefficients[2, 3])
-        else:
-            acceleration, yaw_acceleration = np.zeros(3), 0.0
+        yaws = [root_frame(SkeletonPose(now.pose.skeleton, positions[:, k], rotations[:, k]), roles)[1]
+                for k in range(len(window))]
+        velocity, acceleration, yaw_rate, yaw_acceleration = fit_root_kinematics(
+            window - float(stamp_s), positions[0], yaws)
         return RootMotion(now.status, dt, len(window), position, yaw, velocity, acceleration,
                           yaw_rate, yaw_acceleration, now.detail)

@@ -26,3 +26,20 @@ def root_frame(pose: SkeletonPose, joint_map: Mapping[str, str]) -> tuple[np.nda
     # x = y cross z with y the leftward hip direction.
     yaw = float(np.arctan2(-lateral[0], lateral[1]))
     return np.array(position, dtype=float), yaw
+
+
+def fit_root_kinematics(times: np.ndarray, positions: np.ndarray, yaws: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """Velocity (3,) m/s, acceleration (3,) m/s^2, yaw rate rad/s and yaw acceleration rad/s^2 at time 0
+    from root samples at ``times`` (K,) s relative to it: a least-squares quadratic (a line for two
+    samples). ``positions`` (K, 3) m, ``yaws`` (K,) rad, unwrapped here. One estimator for the node's
+    /tf buffer and the clips: mocap's millimetre jitter would read tens of m/s^2 in a three-point
+    difference (1 mm over 1/60 s is 3.6 m/s^2), the fit over a window averages it out."""
+    yaws = np.unwrap(np.asarray(yaws, dtype=float))
+    degree = min(2, len(times) - 1)
+    design = np.vander(np.asarray(times, dtype=float), degree + 1, increasing=True)
+    coefficients = np.linalg.lstsq(design, np.column_stack([positions, yaws]), rcond=None)[0]
+    velocity, yaw_rate = coefficients[1, :3], float(coefficients[1, 3])
+    if degree == 2:
+        return velocity, 2.0 * coefficients[2, :3], yaw_rate, 2.0 * float(coefficients[2, 3])
+    return velocity, np.zeros(3), yaw_rate, 0.0

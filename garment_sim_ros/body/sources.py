@@ -14,11 +14,14 @@ from typing import Callable
 import numpy as np
 
 from .pose_buffer import RootMotion, SampleStatus
-from .root import root_frame
+from .root import fit_root_kinematics, root_frame
 from .skeleton import Skeleton, SkeletonPose
 
 GAITS = ("walk", "run", "fast")
-MOTION_WINDOW_S = 1.0 / 60.0  # finite-difference step of ``motion``
+# ``motion``'s window and sampling step, s: the node's pose buffer fits the same quadratic over the same
+# window (``PoseBuffer(kinematics_window_s=0.1)``), so a clip and its /tf stream give one root motion.
+MOTION_WINDOW_S = 0.1
+MOTION_SAMPLE_S = 1.0 / 120.0
 
 
 @dataclass(frozen=True)
@@ -34,43 +37,35 @@ class MotionSource:
     dropped_reference_frame: bool = False  # the clip's frame 0 was a reference pose, not played
 
     def motion(self, t: float, window: float = MOTION_WINDOW_S) -> RootMotion:
-        """Root motion at ``t`` by finite differences that never reach before the motion's start,
-        past its end or across a loop's seam (one-sided there): a loop's seam is a jump, not motion."""
+        """Root motion at ``t`` from samples that never reach before the motion's start, past its end or
+        across a loop's seam (one-sided there): a loop's seam is a jump, not motion."""
         start, end = 0.0, math.inf if self.duration is None else self.duration
         if self.period is not None:
-            start = math.floor(t / self.period) * self.period
-            end = start + self.period
+            # inside the loop by a hair at both ends: the period's own end is the next loop's start, and a
+            # loop's start computed in floating point may land on the previous loop's end
+            loop_start = math.floor(t / self.period) * self.period
+            start, end = loop_start + 1e-9 * self.period, loop_start + (1.0 - 1e-9) * self.period
         return motion_from_poses(self.pose, self.joint_map, t, window, (start, end))
 
 
 def motion_from_poses(pose_at: Callable[[float], SkeletonPose], joint_map, t: float,
                       window: float = MOTION_WINDOW_S, span: tuple[float, float] = (-math.inf, math.inf)) -> RootMotion:
-    """Root motion at ``t`` from poses ``window`` apart: central differences inside ``span``, one-sided
-    (second order) where a central sample would fall outside it."""
-    if t - window < span[0] - 1e-12:
-        offsets = (0, 1, 2)  # forward
-    elif t + window > span[1] + 1e-12:
-        offsets = (-2, -1, 0)  # backward
-    else:
-        offsets = (-1, 0, 1)
-    samples = [root_frame(pose_at(t + k * window), joint_map) for k in offsets]
-    p = np.array([s[0] for s in samples])
-    yaw = np.unwrap([s[1] for s in samples])
-    here = offsets.index(0)
-    # derivative weights at the sample ``here`` of three equally spaced ones (exact for quadratics)
-    slope = {0: (-1.5, 2.0, -0.5), 1: (-0.5, 0.0, 0.5), 2: (0.5, -2.0, 1.5)}[here]
-
-    def rate(values):
-        return sum(w * v for w, v in zip(slope, values)) / window
-
-    def curvature(values):
-        return (values[0] - 2 * values[1] + values[2]) / window**2
-
-    return RootMotion(
-        status=SampleStatus.OK, dt=window, samples=3, position=p[here], yaw=float(samples[here][1]),
-        velocity=rate(p), acceleration=curvature(p),
-        yaw_rate=float(rate(yaw)), yaw_acceleration=float(curvature(yaw)),
-    )
+    """Root motion at ``t``: the node's estimator (``body.root.fit_root_kinematics``, a least-squares
+    quadratic) over poses sampled every ``MOTION_SAMPLE_S`` in a ``window`` centred on ``t``, cut to
+    ``span`` (so one-sided at a clip's ends and a loop's seam, never across them)."""
+    half = 0.5 * window
+    start, end = max(t - half, span[0]), min(t + half, span[1])
+    count = max(3, int(round((end - start) / MOTION_SAMPLE_S)) + 1)
+    times = np.linspace(start, end, count) if end > start else np.array([t])
+    samples = [root_frame(pose_at(float(s)), joint_map) for s in times]
+    position, yaw = root_frame(pose_at(t), joint_map)
+    if len(times) < 2:
+        still = np.zeros(3)
+        return RootMotion(SampleStatus.OK, window, 1, position, yaw, still, still, 0.0, 0.0)
+    velocity, acceleration, yaw_rate, yaw_acceleration = fit_root_kinematics(
+        times - t, np.array([s[0] for s in samples]), [s[1] for s in samples])
+    return RootMotion(SampleStatus.OK, window, len(times), position, yaw, velocity, acceleration,
+                      yaw_rate, yaw_acceleration)
 
 
 def procedural_source(gait: str = "walk", height: float = 1.75) -> MotionSource:
