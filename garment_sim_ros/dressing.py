@@ -9,8 +9,8 @@ This is what the node, the command line and the benchmarks drive. Give it skelet
 
 Root motion (``body.pose_buffer.RootMotion``) is the pelvis position, heading and their rates
 (memo §4: v0, a0); the node gets it from the pose buffer, and ``MotionSource.motion`` estimates it
-with the node's estimator (a least-squares quadratic over 0.1 s) for motion sources that can be sampled at any time (BVH clips, the
-procedural character).
+with the same least-squares quadratic over 0.1 s for motion sources that can be sampled at any time
+(BVH clips, the procedural character).
 
 Dressing goes through the canonical standing pose (``body.canonical``), on which the body was
 fitted and the garments cut, so the garments start clear of every volume by construction: every
