@@ -52,12 +52,13 @@ class DressedCharacter:
         self.solvers: list[GarmentSolver] = []
         for name in garment_names:
             mesh = build_garment(name, body.measurements, resolution)
-            missing = [role for role in mesh.attachments if role not in self.joint_map]
+            carriers = [*mesh.attachments, *(second for second, _ in mesh.shared_attachments.values())]
+            missing = [role for role in carriers if role not in self.joint_map]
             if missing:
                 raise ValueError(f"garment {name!r} is carried by {missing}, which the joint map does not name")
-            frame_names = tuple(self.joint_map[role] for role in mesh.attachments)
-            rest_poses = {role: compose(*to_root, *rest.frame(self.joint_map[role])) for role in mesh.attachments}
+            rest_poses = {role: compose(*to_root, *rest.frame(self.joint_map[role])) for role in carriers}
             model = build_cloth_model(mesh, rest_poses)
+            frame_names = tuple(self.joint_map[role] for role in model.attachment_frames)
             self.solvers.append(GarmentSolver(model, body.volumes, params, frame_names))
         frames: list[str] = []
         for solver in self.solvers:

@@ -373,7 +373,8 @@ def _fit_volumes(fit: _Fit, detailed: bool) -> tuple[list[Volume], dict[str, flo
                                     FOREARM_PER_STATURE * stature))
             if f"{s}_foot" in fit.map:
                 volumes.append(_foot(fit, s))
-    levels = {"stature": stature, "hip_joint_z": hip_joint_z, "leg_x": leg_x, "leg_y": leg_y, "thigh": float(np.mean(thigh)),
+    spine_z = float(fit.local(fit.world("spine"))[2]) if "spine" in fit.map else math.inf
+    levels = {"stature": stature, "hip_joint_z": hip_joint_z, "leg_x": leg_x, "leg_y": leg_y, "spine_z": spine_z, "thigh": float(np.mean(thigh)),
               "shin": float(np.mean(shin)), "shoulder_z": shoulder_z, "shoulder_y": shoulder_y}
     return volumes, levels, plausible.estimated
 
@@ -471,7 +472,7 @@ def _measure(fit: _Fit, volumes: VolumeSet, levels: dict[str, float]) -> BodyMea
         knee_z=knee_z, knee_radius=float(knee_radius), ankle_z=ankle_z, ankle_radius=float(ankle_radius),
         chest_z=chest_z, chest_rx=chest_rx, chest_ry=chest_ry,
         shoulder_z=levels["shoulder_z"], shoulder_y=levels["shoulder_y"],
-        waist_x=waist_x, hip_x=hip_x, chest_x=chest_x, leg_x=levels["leg_x"],
+        waist_x=waist_x, hip_x=hip_x, chest_x=chest_x, leg_x=levels["leg_x"], spine_z=levels["spine_z"],
     ).items()})
 
 

@@ -38,6 +38,8 @@ class BodyMeasurements:
     hip_x: float = 0.0
     chest_x: float = 0.0
     leg_x: float = 0.0
+    # height of the spine segment's joint (the lumbar pivot), m; inf when the skeleton has none
+    spine_z: float = float("inf")
 
     def __post_init__(self):
         for f in fields(self):

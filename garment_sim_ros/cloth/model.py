@@ -38,6 +38,11 @@ class ClothModel:
     attachment_frames: tuple[str, ...]  # joint-map roles the attached vertices follow
     attachment_frame_index: np.ndarray  # (A,) index into attachment_frames
     attachment_local: np.ndarray  # (A, 3) coordinates in the attachment frame, m
+    # A second carrier per attached point (skinned to two segments): index into attachment_frames (the
+    # first carrier's where none), coordinates in it (A, 3) m, and its weight (A,) in [0, 1] (0: none).
+    attachment_frame_index2: np.ndarray
+    attachment_local2: np.ndarray
+    attachment_weight2: np.ndarray
     rings: dict
     limb_tubes: dict = field(default_factory=dict)  # see ``GarmentMesh.limb_tubes``
 
@@ -106,8 +111,9 @@ def triangle_areas(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
 
 def build_cloth_model(mesh: GarmentMesh, attachment_rest_poses: dict[str, tuple[np.ndarray, np.ndarray]] | None = None
                       ) -> ClothModel:
-    """Model of ``mesh``. ``attachment_rest_poses`` maps each role in ``mesh.attachments`` to that
-    segment's rest pose (position, xyzw) in the root frame; identity (the root itself) when absent."""
+    """Model of ``mesh``. ``attachment_rest_poses`` maps each role in ``mesh.attachments`` (and the second
+    carriers of ``mesh.shared_attachments``) to that segment's rest pose (position, xyzw) in the root
+    frame; identity (the root itself) when absent."""
     positions = np.asarray(mesh.vertices, dtype=float)
     triangles = np.asarray(mesh.triangles, dtype=np.int64)
     edges = mesh.edges().astype(np.int64)
@@ -129,15 +135,27 @@ def build_cloth_model(mesh: GarmentMesh, attachment_rest_poses: dict[str, tuple[
         np.add.at(vertex_areas, triangles[:, corner], areas / 3.0)
 
     poses = attachment_rest_poses or {}
-    roles = tuple(mesh.attachments)
-    attached, frame_index, local = [], [], []
-    for k, role in enumerate(roles):
-        ids = np.asarray(mesh.attachments[role], dtype=np.int64)
+    shared = dict(mesh.shared_attachments)
+    roles = tuple(dict.fromkeys([*mesh.attachments, *(second for second, _ in shared.values())]))
+
+    def local_in(role: str, ids: np.ndarray) -> np.ndarray:
         p, q = poses.get(role, (np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0])))
-        ip, iq = inverse(np.asarray(p, float), np.asarray(q, float))
+        return transform_points(*inverse(np.asarray(p, float), np.asarray(q, float)), positions[ids])
+
+    attached, frame_index, local, frame_index2, local2, weight2 = [], [], [], [], [], []
+    for role, ids in mesh.attachments.items():
+        ids = np.asarray(ids, dtype=np.int64)
+        second, weight = shared.get(role, (role, 0.0))
         attached.append(ids)
-        frame_index.append(np.full(len(ids), k, dtype=np.int64))
-        local.append(transform_points(ip, iq, positions[ids]))
+        frame_index.append(np.full(len(ids), roles.index(role), dtype=np.int64))
+        local.append(local_in(role, ids))
+        frame_index2.append(np.full(len(ids), roles.index(second), dtype=np.int64))
+        local2.append(local_in(second, ids))
+        weight2.append(np.full(len(ids), float(weight)))
+
+    def joined(parts, shape, dtype=float):
+        return np.concatenate(parts) if parts else np.zeros(shape, dtype)
+
     return ClothModel(
         name=mesh.name,
         rest_positions=positions,
@@ -147,10 +165,13 @@ def build_cloth_model(mesh: GarmentMesh, attachment_rest_poses: dict[str, tuple[
         spring_kinds=kinds.astype(np.int64),
         rest_lengths=rest,
         vertex_areas=vertex_areas,
-        attached=np.concatenate(attached) if attached else np.zeros(0, np.int64),
+        attached=joined(attached, 0, np.int64),
         attachment_frames=roles,
-        attachment_frame_index=np.concatenate(frame_index) if frame_index else np.zeros(0, np.int64),
-        attachment_local=np.concatenate(local) if local else np.zeros((0, 3)),
+        attachment_frame_index=joined(frame_index, 0, np.int64),
+        attachment_local=joined(local, (0, 3)),
+        attachment_frame_index2=joined(frame_index2, 0, np.int64),
+        attachment_local2=joined(local2, (0, 3)),
+        attachment_weight2=joined(weight2, 0),
         rings=dict(mesh.rings),
         limb_tubes=dict(mesh.limb_tubes),
     )

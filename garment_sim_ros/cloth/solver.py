@@ -184,7 +184,10 @@ class GarmentSolver:
         frames = list(volumes.frames) if volumes is not None else []
         frames += [n for n in names if n not in frames]
         self.frames: tuple[str, ...] = tuple(frames)
-        self._attach_frame = np.array([frames.index(n) for n in names], dtype=np.int64)[model.attachment_frame_index]
+        frame_rows = np.array([frames.index(n) for n in names], dtype=np.int64)
+        self._attach_frame = frame_rows[model.attachment_frame_index]
+        self._attach_frame2 = frame_rows[model.attachment_frame_index2]
+        self._shared = bool(np.any(model.attachment_weight2 > 0.0))
         n = model.num_points
         self._x_start = np.zeros((n, 3))
         self._forces = np.zeros((n, 3))
@@ -207,12 +210,20 @@ class GarmentSolver:
 
     # -- poses -------------------------------------------------------------------------------
     def _attachment_targets(self, root_position, root_yaw, frame_positions, frame_rotations) -> np.ndarray:
-        """Where the attached points belong, in the simulation frame."""
-        targets = np.empty((len(self.model.attached), 3))
-        kernels.poses_in_root_frame(np.asarray(root_position, float), float(root_yaw),
-                                    np.ascontiguousarray(frame_positions, dtype=float),
-                                    np.ascontiguousarray(frame_rotations, dtype=float), self._attach_frame,
-                                    self.model.attachment_local, _NO_ROTATIONS, targets, _NO_ROTATIONS)
+        """Where the attached points belong, in the simulation frame: on their segment, or the weighted
+        mean of where their two segments put them (``ClothModel.attachment_weight2``)."""
+        model = self.model
+        args = (np.asarray(root_position, float), float(root_yaw), np.ascontiguousarray(frame_positions, dtype=float),
+                np.ascontiguousarray(frame_rotations, dtype=float))
+        targets = np.empty((len(model.attached), 3))
+        kernels.poses_in_root_frame(*args, self._attach_frame, model.attachment_local, _NO_ROTATIONS, targets,
+                                    _NO_ROTATIONS)
+        if self._shared:
+            second = np.empty_like(targets)
+            kernels.poses_in_root_frame(*args, self._attach_frame2, model.attachment_local2, _NO_ROTATIONS, second,
+                                        _NO_ROTATIONS)
+            weight = model.attachment_weight2[:, None]
+            targets += weight * (second - targets)
         return targets
 
     def _local_volume_poses(self, root_position, root_yaw, frame_positions, frame_rotations):
