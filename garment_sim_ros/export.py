@@ -35,6 +35,10 @@ class GarmentTrack:
     positions: np.ndarray  # (F, N, 3) m, world
     attached: np.ndarray  # (N,) bool: carried by a joint, not simulated
     attachment_joint: np.ndarray  # (N,) int64: index into joint_names of the carrying joint, -1 for free points
+    # (N,) int64 and (N,) float: a second carrying joint and its weight (a skirt's waistband rides on the
+    # pelvis and the spine segment: the weighted mean of where each puts it); -1 and 0 where none
+    attachment_joint2: np.ndarray
+    attachment_weight2: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -88,14 +92,21 @@ class RunRecorder:
             model = solver.model
             attached = np.zeros(model.num_points, dtype=bool)
             attached[model.attached] = True
-            joint = np.full(model.num_points, -1, dtype=np.int64)
-            carriers = [self.skeleton.index(character.joint_map[role]) for role in model.attachment_frames]
-            joint[model.attached] = np.asarray(carriers, dtype=np.int64)[model.attachment_frame_index]
+            carriers = np.array([self.skeleton.index(character.joint_map[role]) for role in model.attachment_frames],
+                                dtype=np.int64)
+            joint, joint2 = np.full(model.num_points, -1, dtype=np.int64), np.full(model.num_points, -1, dtype=np.int64)
+            weight2 = np.zeros(model.num_points)
+            joint[model.attached] = carriers[model.attachment_frame_index]
+            shared = model.attachment_weight2 > 0.0
+            joint2[model.attached[shared]] = carriers[model.attachment_frame_index2[shared]]
+            weight2[model.attached] = model.attachment_weight2
             self.static.update({
                 f"garment_{model.name}_triangles": np.asarray(model.triangles, dtype=np.int64),
                 f"garment_{model.name}_rest_positions": np.asarray(model.rest_positions, dtype=np.float64),
                 f"garment_{model.name}_attached": attached,
                 f"garment_{model.name}_attachment_joint": joint,
+                f"garment_{model.name}_attachment_joint2": joint2,
+                f"garment_{model.name}_attachment_weight2": weight2,
             })
         volumes = character.body.volumes
         self.static.update({
@@ -157,13 +168,16 @@ def read_run(path: str | Path) -> Run:
         prefix = f"garment_{name}_"
         points = len(_get(arrays, path, prefix + "rest_positions"))
         expected.update({prefix + "positions": (frames, points, 3), prefix + "attached": (points,),
-                         prefix + "attachment_joint": (points,)})
+                         prefix + "attachment_joint": (points,), prefix + "attachment_joint2": (points,),
+                         prefix + "attachment_weight2": (points,)})
         triangles = _get(arrays, path, prefix + "triangles")
         if triangles.ndim != 2 or triangles.shape[1] != 3:
             raise ValueError(f"{path}: {prefix}triangles has shape {triangles.shape}, expected (T, 3)")
         garments[name] = GarmentTrack(name, triangles, arrays[prefix + "rest_positions"],
                                       _get(arrays, path, prefix + "positions"), _get(arrays, path, prefix + "attached"),
-                                      _get(arrays, path, prefix + "attachment_joint"))
+                                      _get(arrays, path, prefix + "attachment_joint"),
+                                      _get(arrays, path, prefix + "attachment_joint2"),
+                                      _get(arrays, path, prefix + "attachment_weight2"))
     for key, shape in expected.items():
         if _get(arrays, path, key).shape != shape:
             raise ValueError(f"{path}: {key} has shape {arrays[key].shape}, expected {shape}")

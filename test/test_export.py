@@ -94,3 +94,37 @@ def test_a_file_that_is_not_a_run_is_refused(tmp_path):
     np.savez(path, times=np.zeros(3))
     with pytest.raises(ValueError, match="not a garment-sim run export"):
         read_run(path)
+
+
+def test_a_skirt_waistband_rides_between_the_pelvis_and_the_spine_as_skinned(tmp_path):
+    """The waistband is skinned to two joints: in every frame each of its points is the weighted mean of
+    where the pelvis and the spine segment put its cut position (linear blend skinning)."""
+    clip = Path(__file__).parent / "data" / "cc_cmu_07_01_walk.bvh"
+    path = tmp_path / "skirt.npz"
+    assert main(["simulate", "--bvh", str(clip), "--garments", "short_skirt", "--fps", "30", "--duration", "1",
+                 "--export", str(path), "--json"]) == 0
+    run = read_run(path)
+    garment = run.garments["short_skirt"]
+    ids = np.flatnonzero(garment.attached)
+    weight = garment.attachment_weight2[ids]
+    assert np.all(garment.attachment_joint2[ids] >= 0) and np.all((0.0 < weight) & (weight <= 1.0))
+    names = list(run.joint_names)
+    assert {names[j] for j in garment.attachment_joint[ids]} == {"CC_Base_Pelvis"}
+    assert {names[j] for j in garment.attachment_joint2[ids]} == {"CC_Base_Waist"}
+    source = bvh_source(str(clip), loop=False)
+    rest = source.rest_pose
+    origin, yaw = root_frame(rest, source.joint_map)
+    cut = origin + quat_rotate(yaw_quat(yaw), garment.rest_positions[ids])
+
+    def carried(joints):
+        return quat_rotate(quat_conjugate(rest.rotations[joints]), cut - rest.positions[joints])
+
+    local1, local2 = carried(garment.attachment_joint[ids]), carried(garment.attachment_joint2[ids])
+    for k in range(len(run.times)):
+        def placed(joints, local):
+            p, q = run.joint_positions[k, joints].astype(float), run.joint_rotations[k, joints].astype(float)
+            return p + quat_rotate(q, local)
+
+        expected = (1.0 - weight[:, None]) * placed(garment.attachment_joint[ids], local1) \
+            + weight[:, None] * placed(garment.attachment_joint2[ids], local2)
+        assert np.abs(garment.positions[k, ids] - expected).max() < 1e-4, f"frame {k}"
