@@ -170,7 +170,14 @@ def pants(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> Ga
     vertices, start both legs: each leg's first ring is half of the hip ring plus the seam.
     """
     ease = 0.012
-    n_around, n_hip_levels = _counts(resolution, 32, 3)  # hip ring size, levels from waist to crotch
+    n_around, n_hip_levels = _counts(resolution, 32, 3)  # hip ring size, levels from the waist to the crotch
+    seam_z = body.crotch_z - _crotch_drop(body)
+    # The tube goes on below the crotch to the seam: more rings at about the spacing of the waist-to-crotch
+    # tube, not longer springs (a coarser tube bends less where the thighs swing, and the guard's runaway
+    # test is a stretch ratio: a 2 m jump of the free points was 11x a 0.18 m spring, not runaway after one
+    # step's length correction; test_canonical's guard test).
+    rise = body.waist_z - body.crotch_z
+    n_hip_levels = 1 + round((n_hip_levels - 1) * (body.waist_z - seam_z) / rise)
     half = n_around // 2
     seam = max(1, round(2 * resolution))  # interior crotch-seam vertices
     leg_around = half + 1 + seam
@@ -183,7 +190,7 @@ def pants(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> Ga
         (body.crotch_z, body.hip_x, body.hip_rx + ease, body.hip_ry + ease),
     ])
     # Ring phase: index 0 at the front centre (+x), index `half` at the back centre.
-    hip_levels = _profile(body.waist_z, body.crotch_z - _crotch_drop(body), n_hip_levels, hip_radii)
+    hip_levels = _profile(body.waist_z, seam_z, n_hip_levels, hip_radii)
     vertices = [_ring(cx, cy, z, rx, ry, n_around) for cx, cy, z, rx, ry in hip_levels]
     hip_rings = [np.arange(i * n_around, (i + 1) * n_around) for i in range(n_hip_levels)]
     triangles = [_band(hip_rings[i], hip_rings[i + 1]) for i in range(n_hip_levels - 1)]
