@@ -173,9 +173,7 @@ def pants(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> Ga
     n_around, n_hip_levels = _counts(resolution, 32, 3)  # hip ring size, levels from the waist to the crotch
     seam_z = body.crotch_z - _crotch_drop(body)
     # The tube goes on below the crotch to the seam: more rings at about the spacing of the waist-to-crotch
-    # tube, not longer springs (a coarser tube bends less where the thighs swing, and the guard's runaway
-    # test is a stretch ratio: a 2 m jump of the free points was 11x a 0.18 m spring, not runaway after one
-    # step's length correction; test_canonical's guard test).
+    # tube, not longer springs (a coarser tube bends less where the thighs swing).
     rise = body.waist_z - body.crotch_z
     n_hip_levels = 1 + round((n_hip_levels - 1) * (body.waist_z - seam_z) / rise)
     half = n_around // 2
