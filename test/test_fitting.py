@@ -13,9 +13,9 @@ from garment_sim_ros import cli
 from garment_sim_ros.body.bvh import load_bvh
 from garment_sim_ros.body.canonical import canonical_pose
 from garment_sim_ros.body.fitting import (
-    BASIC_VOLUMES, DETAILED_VOLUMES, LEG_PER_STATURE, THIGH_MID_PLANE_GAP_PER_STATURE, BodyConfigError, fit_body,
-    load_body_overrides,
+    BASIC_VOLUMES, DETAILED_VOLUMES, LEG_PER_STATURE, THIGH_MID_PLANE_GAP_PER_STATURE, fit_body,
 )
+from garment_sim_ros.body.overrides import BodyConfigError, load_body_overrides
 from garment_sim_ros.body.joint_map import REQUIRED_ROLES, auto_joint_map
 from garment_sim_ros.body.procedural import WALKER_JOINT_MAP, ProceduralCharacter
 from garment_sim_ros.body.root import root_frame

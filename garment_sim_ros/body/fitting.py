@@ -42,17 +42,16 @@ pose the legs are splayed about 20 deg, while garments are fitted to a standing 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
-from pathlib import Path
-from typing import Any, Mapping
+from dataclasses import dataclass
+from typing import Mapping
 
 import numpy as np
 
 from ..collision.volumes import ELLIPSOID, SPHERE, Volume, VolumeSet
 from ..transforms import quat_conjugate, quat_from_matrix, quat_multiply, quat_rotate, yaw_quat
-from ..config_files import config_file, read_yaml
 from .joint_map import validate_joint_map
 from .measurements import BodyMeasurements
+from .overrides import BodyOverrides, apply_overrides, check_overrides
 from .root import root_frame
 from .skeleton import SkeletonPose
 
@@ -114,21 +113,6 @@ BASIC_VOLUMES: tuple[str, ...] = (
 DETAILED_VOLUMES: tuple[str, ...] = BASIC_VOLUMES + (
     "neck", "left_lower_arm", "right_lower_arm", "left_foot", "right_foot",
 )
-OVERRIDE_KEYS = {"radii": 3, "cut": 2, "offset_position": 3}
-
-
-class BodyConfigError(ValueError):
-    """A body override is refused; the message names the source, the key and what is allowed."""
-
-
-@dataclass(frozen=True)
-class BodyOverrides:
-    """Per-volume replacements ``{volume: {radii|cut|offset_position: [...]}}`` and where they came from."""
-
-    volumes: Mapping[str, Mapping[str, tuple[float, ...]]]
-    source: str = "overrides"
-
-
 @dataclass(frozen=True)
 class Body:
     volumes: VolumeSet
@@ -136,45 +120,6 @@ class Body:
     joint_map: Mapping[str, str]
     rest_pose: SkeletonPose
     estimated: tuple[str, ...] = ()  # measurements out of human range, replaced by estimates (PLAUSIBLE_PER_STATURE)
-
-
-def check_overrides(data: Any, source: str) -> BodyOverrides:
-    """Validate the structure of overrides (names, keys, list lengths, numbers)."""
-    if data is None:
-        return BodyOverrides({}, source)
-    if not isinstance(data, Mapping):
-        raise BodyConfigError(f"{source}: expected a mapping with the key 'volumes', got {type(data).__name__}")
-    unknown = [k for k in data if k != "volumes"]
-    if unknown:
-        raise BodyConfigError(f"{source}: unknown key(s) {', '.join(map(str, unknown))}; allowed: volumes")
-    volumes = data.get("volumes") or {}
-    if not isinstance(volumes, Mapping):
-        raise BodyConfigError(f"{source}: volumes must map volume names to overrides, got {type(volumes).__name__}")
-    checked: dict[str, dict[str, tuple[float, ...]]] = {}
-    for name, fields in volumes.items():
-        if name not in DETAILED_VOLUMES:
-            raise BodyConfigError(f"{source}: volumes.{name}: unknown volume; allowed: {', '.join(DETAILED_VOLUMES)}")
-        if not isinstance(fields, Mapping):
-            raise BodyConfigError(f"{source}: volumes.{name}: expected a mapping of {', '.join(OVERRIDE_KEYS)}")
-        checked[name] = {}
-        for key, value in fields.items():
-            if key not in OVERRIDE_KEYS:
-                raise BodyConfigError(f"{source}: volumes.{name}.{key}: unknown key; "
-                                      f"allowed: {', '.join(OVERRIDE_KEYS)}")
-            size = OVERRIDE_KEYS[key]
-            numbers = isinstance(value, (list, tuple)) and all(
-                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
-            if not numbers or len(value) != size:
-                raise BodyConfigError(f"{source}: volumes.{name}.{key}: got {value!r}; allowed: a list of {size} "
-                                      "finite numbers (m)")
-            checked[name][key] = tuple(float(v) for v in value)
-    return BodyOverrides(checked, source)
-
-
-def load_body_overrides(path: str | Path | None = None) -> BodyOverrides:
-    """Read ``config/body.yaml`` (or ``path``)."""
-    path = Path(path) if path is not None else config_file("body.yaml")
-    return check_overrides(read_yaml(path, BodyConfigError, "body config"), str(path))
 
 
 class _Fit:
@@ -391,30 +336,6 @@ def _foot(fit: _Fit, side: str) -> Volume:
                       FOOT_HEIGHT_PER_LENGTH * length, FOOT_WIDTH_PER_LENGTH * length, JOINT_TAPER)
 
 
-def _apply_overrides(volumes: list[Volume], overrides: BodyOverrides) -> list[Volume]:
-    fitted = {v.name: v for v in volumes}
-    for name, fields in overrides.volumes.items():
-        where = f"{overrides.source}: volumes.{name}"
-        if name not in fitted:
-            raise BodyConfigError(f"{where}: this body has no such volume (the 15-volume set needs detailed=True); "
-                                  f"fitted: {', '.join(fitted)}")
-        volume = fitted[name]
-        radii = fields.get("radii", volume.radii)
-        cut = fields.get("cut", volume.cut)
-        if any(r <= 0.0 for r in radii):
-            raise BodyConfigError(f"{where}.radii: got {list(radii)}; allowed: three positive lengths (m)")
-        if volume.kind == SPHERE and "radii" in fields and not np.allclose(radii, radii[0]):
-            raise BodyConfigError(f"{where}.radii: got {list(radii)}; allowed: a sphere's three radii are equal")
-        if "cut" in fields and volume.kind != ELLIPSOID:
-            raise BodyConfigError(f"{where}.cut: only ellipsoids are cut; {name} is a sphere")
-        if volume.kind == ELLIPSOID and not -radii[2] <= cut[0] < cut[1] <= radii[2]:
-            raise BodyConfigError(f"{where}.cut: got {list(cut)} with a_z = {radii[2]:.4g} m; allowed: "
-                                  "-a_z <= cut[0] < cut[1] <= a_z (local z, m), inside the ellipsoid")
-        fitted[name] = replace(volume, radii=tuple(radii), cut=tuple(cut),
-                               offset_position=fields.get("offset_position", volume.offset_position))
-    return [fitted[v.name] for v in volumes]
-
-
 def _measure(fit: _Fit, volumes: VolumeSet, levels: dict[str, float]) -> BodyMeasurements:
     """Measurements read from the fitted volumes in the rest pose's root frame."""
     by_name = {v.name: v for v in volumes.volumes}
@@ -498,5 +419,5 @@ def fit_body(rest_pose: SkeletonPose, joint_map: Mapping[str, str], detailed: bo
     volumes, levels, estimated = _fit_volumes(fit, detailed)
     order = DETAILED_VOLUMES if detailed else BASIC_VOLUMES
     volumes.sort(key=lambda v: order.index(v.name))
-    volume_set = VolumeSet(tuple(_apply_overrides(volumes, overrides)))
+    volume_set = VolumeSet(tuple(apply_overrides(volumes, overrides)))
     return Body(volume_set, _measure(fit, volume_set, levels), joint_map, rest_pose, tuple(estimated))

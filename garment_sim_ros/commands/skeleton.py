@@ -9,7 +9,8 @@ import numpy as np
 
 from ..body.bvh import UNIT_SCALES, BvhError, Clip, load_bvh
 from ..body.canonical import canonical_pose
-from ..body.fitting import Body, BodyConfigError, fit_body, load_body_overrides
+from ..body.fitting import Body, fit_body
+from ..body.overrides import BodyConfigError, load_body_overrides
 from ..body.joint_map import JointMapError, auto_joint_map, load_joint_map
 from ..collision.volumes import KIND_NAMES
 

@@ -48,7 +48,8 @@ from typing import Sequence
 
 import numpy as np
 
-from ..body.fitting import fit_body, load_body_overrides
+from ..body.fitting import fit_body
+from ..body.overrides import load_body_overrides
 from ..body.joint_map import auto_joint_map, load_joint_map
 from ..body.pose_buffer import PoseBuffer, SampleStatus
 from ..body.canonical import canonical_pose, local_transforms
