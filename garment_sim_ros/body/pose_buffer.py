@@ -149,8 +149,27 @@ class _Series:
         self._rotations[at] = rotation
         return outcome
 
+    @property
+    def newest(self) -> float:
+        return float(self._stamps[self._end - 1])
+
+    def append(self, stamp: float, translation: np.ndarray, rotation: np.ndarray) -> None:
+        """Append one sample whose stamp is after the newest (the caller checks)."""
+        if self._end == len(self._stamps):  # as in ``insert``: the live block moves to the front,
+            count = min(len(self), self.capacity)  # without what ``trim`` would drop (a block can be long)
+            for array in (self._stamps, self._translations, self._rotations):
+                array[:count] = array[self._end - count:self._end]
+            self._start, self._end = 0, count
+        end = self._end
+        self._stamps[end] = stamp
+        self._translations[end] = translation
+        self._rotations[end] = rotation
+        self._end = end + 1
+
     def trim(self, max_duration_s: float) -> None:
         """Drop samples beyond the capacity or older than ``max_duration_s`` behind the newest (keeps two)."""
+        if self._stamps[self._start] >= self._stamps[self._end - 1] - max_duration_s and len(self) <= self.capacity:
+            return  # nothing to drop: no search (called once per appended block)
         stamps = self.stamps
         keep_from = max(len(stamps) - self.capacity, int(np.searchsorted(stamps, stamps[-1] - max_duration_s)))
         self._start += max(0, min(keep_from, len(stamps) - 2))
@@ -294,6 +313,53 @@ class PoseBuffer:
             self.adjusted["duplicate_replaced"] += 1
         series.trim(self.max_duration_s)
         return None
+
+    def add_transforms(self, stamps, parents: Sequence[str], children: Sequence[str], translations,
+                       rotations_xyzw, now_s: float | None = None) -> tuple[int, list[str]]:
+        """Many dynamic transforms at once (rows of arrays): the stored count and the refusals.
+
+        The same result as ``add_transform`` row by row, at a /tf flood's rates: the checks run
+        vectorised, and a known child with its known parent whose new stamps are in order after its
+        newest is appended without the per-row checks. Any other child (new, reparented, refused rows,
+        out of order, non-unit quaternions...) goes through ``add_transform`` row by row, in order."""
+        stamps = np.asarray(stamps, dtype=float)
+        translations = np.asarray(translations, dtype=float).reshape(-1, 3)
+        rotations = np.asarray(rotations_xyzw, dtype=float).reshape(-1, 4)
+        norms = np.sqrt(np.einsum("ij,ij->i", rotations, rotations))
+        good = (np.isfinite(stamps) & np.isfinite(translations).all(axis=1) & np.isfinite(rotations).all(axis=1)
+                & (np.abs(norms - 1.0) <= _UNIT_SILENT))
+        if now_s is not None:
+            good &= stamps <= now_s + self.max_lead_s
+        with np.errstate(divide="ignore", invalid="ignore"):  # zero or NaN quaternions: not good, not used
+            units = rotations / norms[:, None]
+        stamp_list, good_list = stamps.tolist(), good.tolist()
+        rows: dict[str, list[int]] = {}
+        for i, child in enumerate(children):
+            rows.setdefault(child, []).append(i)
+        stored, refusals, slow = 0, [], []
+        for child, index in rows.items():
+            series = self._dynamic.get(child)
+            parent = parents[index[0]]
+            if series is None or self._parent.get(child) != parent or child in self._static:
+                slow.extend(index)
+                continue
+            block = [stamp_list[i] for i in index]  # Python scalars: cheaper than numpy for a few rows
+            if (not all(good_list[i] and parents[i] == parent for i in index) or block[0] <= series.newest
+                    or any(b <= a for a, b in zip(block, block[1:]))):
+                slow.extend(index)  # refused, out of order or duplicated: one by one, counted there
+                continue
+            for i, stamp in zip(index, block):
+                series.append(stamp, translations[i], units[i])
+            series.trim(self.max_duration_s)
+            stored += len(index)
+        for i in sorted(slow):
+            refusal = self.add_transform(stamp_list[i], parents[i], children[i], translations[i], rotations[i],
+                                         now_s=now_s)
+            if refusal is None:
+                stored += 1
+            else:
+                refusals.append(refusal)
+        return stored, refusals
 
     def _reject(self, reason: str, parent, child, why: str) -> str:
         self.rejected[reason] += 1

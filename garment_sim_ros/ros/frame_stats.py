@@ -15,6 +15,8 @@ import time
 from collections import Counter
 from typing import Sequence
 
+import numpy as np
+
 from ..cloth.solver import FrameReport
 from ..quality import REPORT_SCALARS
 
@@ -43,6 +45,20 @@ class FrameStats:
         self._hits = [0, 0]
         self._body_s = 0.0
         self._simulated_s = 0.0
+        self._input_lags: list[float] = []
+        self._backlog = 0
+
+    def record_input(self, lag_s: float) -> None:
+        """A /tf message absorbed ``lag_s`` after its newest stamp (receive time - stamp)."""
+        self._input_lags.append(lag_s)
+
+    def input_rate(self) -> float:
+        """/tf messages absorbed per second in the current window."""
+        return len(self._input_lags) / max(time.monotonic() - self._window_start, 1e-9)
+
+    def record_drain(self, messages: int) -> None:
+        """One frame's drain of /tf took ``messages`` (the backlog since the last frame)."""
+        self._backlog = max(self._backlog, messages)
 
     def record_tick(self, compute_s: float) -> None:
         self._ticks += 1
@@ -84,7 +100,9 @@ class FrameStats:
         (past ``max_substeps``); ``lag_s`` is the garments' total lag since they were dressed; the
         quality figures (``bones_through``, ``legs_off``, ``structural_stretch_p99``... as in
         ``quality.REPORT_SCALARS``) are the window's worst frame, ``bones_through_frames`` counts the
-        window's frames with a limb bone through a garment."""
+        window's frames with a limb bone through a garment; ``input_hz``, the /tf messages of the character
+        absorbed per second, ``input_lag_p50_ms`` / ``_p99_ms``, their receive time minus stamp, and
+        ``input_backlog``, the most /tf messages one frame found waiting."""
         elapsed = max(time.monotonic() - self._window_start, 1e-9)
         per_frame = max(self._frames, 1)
         per_step = max(self._stepped, 1)
@@ -104,6 +122,10 @@ class FrameStats:
             "bones_through_frames": float(self._bones_frames),
             "static_hits": float(self._hits[0]),
             "dynamic_hits": float(self._hits[1]),
+            "input_hz": len(self._input_lags) / elapsed,
+            "input_backlog": float(self._backlog),
+            **dict(zip(("input_lag_p50_ms", "input_lag_p99_ms"),
+                       (1e3 * np.percentile(self._input_lags, (50, 99)) if self._input_lags else (0.0, 0.0)))),
         }
         self._start()
         return figures

@@ -2,8 +2,10 @@
 
 Wires topics, parameters and timers to the ROS-free modules:
 
-- ``/tf`` and ``/tf_static`` (``tf2_msgs/TFMessage``; static: transient local) -> ``tf_input.ingest``
-  into a ``PoseBuffer``; only frames starting with ``frame_prefix`` are this character's.
+- ``/tf`` and ``/tf_static`` (``tf2_msgs/TFMessage``; static: transient local) into a ``PoseBuffer``;
+  only frames starting with ``frame_prefix`` are this character's. /tf is taken raw and drained at
+  the start of every frame, decoded by ``tf_input.TFDecoder`` (numpy), so 100+ joints at 120 Hz and
+  more cost a small share of a core and the frame always samples the newest data (issue 17).
 - a timer at ``rate_hz``: ``T_next = D_last + now`` (the node's clock, so ``use_sim_time`` works;
   ``D_last`` the last tick's compute time) -> ``CharacterLoop.frame(T_next)`` -> the garments (and
   body volumes) on ``~/markers`` as a serialized ``visualization_msgs/MarkerArray`` stamped
@@ -40,6 +42,7 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.serialization import serialize_message
 from std_msgs.msg import Header
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import MarkerArray
@@ -54,11 +57,15 @@ from .frame_stats import FrameStats
 from .marker_cdr import DELETEALL, MarkerData, serialize_marker_array
 from .params_file import FileWatch, ParamsFileError, read_node_parameters
 from .settings import ALL_PARAMETERS, PARAMETER_ROWS, SOLVER_PARAMETER_NAMES, is_read_only
-from .tf_input import IngestResult, ingest, seconds_to_stamp
+from .tf_input import IngestResult, TFDecoder, TransformBatch, ingest, ingest_batch, seconds_to_stamp
 
 NODE_NAME = "garment_sim_node"
 LAG_WARNING_FRACTION = 0.1  # diagnostics turn WARN when the garments fall behind by this share of the time
-_TF_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+# /tf: reliable and volatile as tf2's listeners, so every publisher that works with tf2 matches. Keep
+# last 1000 messages: the node drains the whole queue every frame (``_absorb_tf``), so the depth is
+# only the slack for a long frame (dressing takes up to a second): 4 characters at 240 Hz fill 1000 in
+# ~1 s; older samples are of no use (``PoseBuffer.max_duration_s``). Memory: 16 kB per 142-joint message.
+_TF_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 _TF_STATIC_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
 _REDRESS_KEYS = ("garments", "resolution")
@@ -143,7 +150,11 @@ class GarmentSimNode(Node):
         self._last_compute_s = 0.0
         self._watch: FileWatch | None = None
 
-        self.create_subscription(TFMessage, "/tf", self._on_tf, _TF_QOS)
+        # raw: the bytes are decoded by ``TFDecoder`` (numpy), never into Python message objects
+        self._tf_decoder = TFDecoder(v["frame_prefix"])
+        self._tf_pending: list[bytes] = []
+        self._warned_tf_full = False
+        self._tf_subscription = self.create_subscription(TFMessage, "/tf", self._on_tf, _TF_QOS, raw=True)
         self.create_subscription(TFMessage, "/tf_static", self._on_tf_static, _TF_STATIC_QOS)
         self.marker_publisher = self.create_publisher(MarkerArray, "~/markers", 2)
         self.diagnostics_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
@@ -304,19 +315,67 @@ class GarmentSimNode(Node):
         return False
 
     # ------------------------------------------------------------------------------ input
-    def _on_tf(self, message: TFMessage) -> None:
+    def _on_tf(self, message: bytes | TFMessage) -> None:
+        """/tf, serialized (a ``TFMessage`` is serialized first: tests feed objects). Kept until the
+        next frame absorbs it: one batch per frame costs about what one message costs; a full
+        backlog (no frames: sim time not started) is absorbed here."""
+        self._tf_pending.append(message if isinstance(message, bytes) else serialize_message(message))
+        if len(self._tf_pending) >= _TF_QOS.depth:
+            self._absorb_tf()
+
+    def _absorb_tf(self) -> None:
+        """Everything waiting on /tf (kept by ``_on_tf`` and still in the subscription's queue) into
+        the pose buffer at once, at the start of every frame.
+
+        rclpy's executor takes one message per subscription per wait, so behind a frame timer that is
+        always ready the queue only grew and the node read its oldest message, 0.84 s old at 120 Hz
+        (issue 17). Draining the queue here keeps the node on the newest data whatever the executor
+        does."""
+        messages, self._tf_pending = self._tf_pending, []
+        kept = len(messages)
+        handle = self._tf_subscription.handle
+        with handle:
+            while True:
+                taken = handle.take_message(TFMessage, True)
+                if taken is None:
+                    break
+                messages.append(taken[0])
+        if not messages:
+            return
+        self.stats.record_drain(len(messages))
+        if len(messages) - kept >= _TF_QOS.depth and not self._warned_tf_full:
+            self._warned_tf_full = True  # once: the diagnostics go on counting (input_backlog, input_hz)
+            self.get_logger().warning(
+                f"/tf arrives faster than this node absorbs it: its queue was full at a frame (it keeps "
+                f"{_TF_QOS.depth} messages, older ones were dropped); it sustains about "
+                f"{self.stats.input_rate():.0f} messages/s. Poses stay the newest; see input_lag_* in diagnostics")
         now_ns = self.get_clock().now().nanoseconds  # 0: use_sim_time before the first /clock
-        self._count_input(ingest(self.buffer, message, self.values["frame_prefix"], static=False,
-                                 now_s=now_ns * 1e-9 if now_ns else None))
+        now_s = now_ns * 1e-9 if now_ns else None
+        batches = []
+        for data in messages:
+            try:
+                batch = self._tf_decoder.decode(data)
+            except ValueError as err:
+                self.input_counts["undecodable"] += 1
+                self._log("warning", "tf_undecodable", f"a /tf message could not be decoded (counted): {err}")
+                continue
+            if len(batch.stamps) and now_s is not None:
+                self.stats.record_input(now_s - float(batch.stamps.max()))  # receive time - stamp
+            if not (len(batch.stamps) or batch.other_character):
+                self.input_counts["empty_messages"] += 1  # nothing to do; counted so a silent publisher shows
+            batches.append(batch)
+        if batches:
+            self._count_input(ingest_batch(self.buffer, TransformBatch.concatenate(batches), now_s=now_s),
+                              count_empty=False)
 
     def _on_tf_static(self, message: TFMessage) -> None:
         self._count_input(ingest(self.buffer, message, self.values["frame_prefix"], static=True))
 
-    def _count_input(self, result: IngestResult) -> None:
+    def _count_input(self, result: IngestResult, count_empty: bool = True) -> None:
         self.input_counts["stored"] += result.stored
         self.input_counts["other_character"] += result.other_character
         self.input_counts["refused"] += result.refused
-        if not (result.stored or result.other_character or result.refused):
+        if count_empty and not (result.stored or result.other_character or result.refused):
             self.input_counts["empty_messages"] += 1  # nothing to do; counted so a silent publisher shows
         if result.refused:
             self._log("warning", "tf_refused",
@@ -327,6 +386,7 @@ class GarmentSimNode(Node):
         tic = time.perf_counter()
         dressed = False
         try:
+            self._absorb_tf()  # the newest /tf first, however the executor scheduled the callbacks
             self._apply_pending()
             frame_time = self._last_compute_s + self.get_clock().now().nanoseconds * 1e-9  # T_next
             result = self.loop.frame(frame_time)
