@@ -106,13 +106,15 @@ class RerunLogger:
 
     def log_frame(self, time_s: float, garments: Sequence[tuple] = (), volumes: tuple | None = None,
                   skeleton_segments: np.ndarray | None = None, timings_ms: Mapping[str, float] | None = None,
-                  quality: Mapping[str, Mapping[str, float]] | None = None) -> None:
+                  quality: Mapping[str, Mapping[str, float]] | None = None,
+                  inputs: Mapping[str, float] | None = None) -> None:
         """Log one frame at ``time_s`` (s, the node's clock) on the ``sim_time`` timeline.
 
         ``garments``: ``(name, positions (N,3), normals (N,3), triangles (T,3) int, colors (N,3) uint8)``
         each; ``volumes``: ``(centers (V,3), rotations (V,4) xyzw, half_sizes (V,3))``;
         ``skeleton_segments``: ``(S, 2, 3)``; ``timings_ms``: ``{stage: milliseconds}``;
-        ``quality``: ``{garment: {figure: value}}`` (``quality.report_scalars``).
+        ``quality``: ``{garment: {figure: value}}`` (``quality.report_scalars``); ``inputs``: the /tf
+        input at this frame, ``{figure: value}`` (the node's ``lag_ms``, ms, and ``backlog``, messages).
         """
         if self._stream is None:
             return
@@ -127,6 +129,7 @@ class RerunLogger:
         timings = _check_timings(timings_ms or {})
         figures = {_check_name("garment name", name): _check_timings(values, "quality figure", "")
                    for name, values in (quality or {}).items()}
+        input_figures = _check_timings(inputs or {}, "input figure", "")
 
         stream.set_time(TIMELINE, duration=float(time_s))
         for name, positions, normals, triangles, colors in checked:
@@ -149,6 +152,8 @@ class RerunLogger:
         for name, values in figures.items():
             for figure, value in values.items():
                 stream.log(f"quality/{name}/{figure}", rr.Scalars(value))
+        for figure, value in input_figures.items():
+            stream.log(f"input/{figure}", rr.Scalars(value))
 
     def close(self) -> None:
         """Flush everything logged and end the stream (a saved file is complete after this)."""
@@ -173,6 +178,7 @@ def _blueprint():
             rrb.Vertical(
                 rrb.TimeSeriesView(origin="timings", name="stage timings [ms]"),
                 rrb.TimeSeriesView(origin="quality", name="garment quality"),
+                rrb.TimeSeriesView(origin="input", name="/tf input: lag [ms], backlog"),
             ),
             column_shares=[3, 2],
         ),

@@ -83,13 +83,13 @@ def test_node_dresses_the_walking_character_and_publishes_its_garments(graph, tm
     assert int(values["mass_points"]) == sum(s.model.num_points for s in character.solvers)
     assert abs(float(values["skeleton_age_s"])) < 0.5
 
-    # The Rerun hook: the recording holds both garments and the stage timings.
+    # The Rerun hook: the recording holds both garments, the stage timings, quality and the /tf input.
     graph.remove(node)
     listing = subprocess.run([str(Path(sys.executable).with_name("rerun")), "rrd", "print", "-v", str(recording)],
                              capture_output=True, text=True, timeout=60).stdout
     for entity in ("/world/garments/pants", "/world/garments/short_skirt", "/world/body/volumes",
                    "/timings/collision", "/timings/publish", "/quality/pants/bones_through",
-                   "/quality/short_skirt/structural_stretch_p99"):
+                   "/quality/short_skirt/structural_stretch_p99", "/input/backlog", "/input/lag_ms"):
         assert f" - {entity} " in listing, entity
 
 

@@ -158,3 +158,14 @@ def test_quality_figures_are_logged_as_scalars_per_garment(tmp_path):
     rows = read_back(path)
     assert [v for _, v in rows[("/quality/pants/bones_through", "Scalars:scalars", False)]] == [[0.0], [2.0]]
     assert [v for _, v in rows[("/quality/pants/structural_stretch_max", "Scalars:scalars", False)]] == [[1.25]] * 2
+
+
+def test_the_tf_input_is_logged_as_scalars(tmp_path):
+    path = tmp_path / "input.rrd"
+    with RerunLogger("save", path=path) as logger:
+        logger.log_frame(0.5, inputs={"lag_ms": 7.5, "backlog": 3})
+        with pytest.raises(ValueError, match="input figure 'lag_ms'"):
+            logger.log_frame(1.0, inputs={"lag_ms": float("inf")})
+    rows = read_back(path)
+    assert [v for _, v in rows[("/input/lag_ms", "Scalars:scalars", False)]] == [[7.5]]
+    assert [v for _, v in rows[("/input/backlog", "Scalars:scalars", False)]] == [[3.0]]

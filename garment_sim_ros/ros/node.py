@@ -153,6 +153,8 @@ class GarmentSimNode(Node):
         # raw: the bytes are decoded by ``TFDecoder`` (numpy), never into Python message objects
         self._tf_decoder = TFDecoder(v["frame_prefix"])
         self._tf_pending: list[bytes] = []
+        # the /tf input at the newest frame, for the Rerun recording: messages absorbed, newest lag (ms)
+        self._frame_input: dict[str, float] = {"backlog": 0.0}
         self._warned_tf_full = False
         self._tf_subscription = self.create_subscription(TFMessage, "/tf", self._on_tf, _TF_QOS, raw=True)
         self.create_subscription(TFMessage, "/tf_static", self._on_tf_static, _TF_STATIC_QOS)
@@ -343,6 +345,7 @@ class GarmentSimNode(Node):
         if not messages:
             return
         self.stats.record_drain(len(messages))
+        self._frame_input["backlog"] = float(len(messages))
         if len(messages) - kept >= _TF_QOS.depth and not self._warned_tf_full:
             self._warned_tf_full = True  # once: the diagnostics go on counting (input_backlog, input_hz)
             self.get_logger().warning(
@@ -360,7 +363,9 @@ class GarmentSimNode(Node):
                 self._log("warning", "tf_undecodable", f"a /tf message could not be decoded (counted): {err}")
                 continue
             if len(batch.stamps) and now_s is not None:
-                self.stats.record_input(now_s - float(batch.stamps.max()))  # receive time - stamp
+                lag_s = now_s - float(batch.stamps.max())  # receive time - stamp
+                self.stats.record_input(lag_s)
+                self._frame_input["lag_ms"] = 1e3 * lag_s
             if not (len(batch.stamps) or batch.other_character):
                 self.input_counts["empty_messages"] += 1  # nothing to do; counted so a silent publisher shows
             batches.append(batch)
@@ -432,7 +437,7 @@ class GarmentSimNode(Node):
                    for solver, report in zip(self.loop.character.solvers, reports)}
         try:
             self.rerun.log_frame(result.time_s, timings_ms={k: 1e3 * s for k, s in timings_ms.items()},
-                                 quality=quality, **payload)
+                                 quality=quality, inputs=self._frame_input, **payload)
         except Exception as err:  # the viewer went away, the disk is full...: markers go on
             self.get_logger().error(f"Rerun logging failed, switched off: {err}")
             self.rerun = None
