@@ -352,3 +352,18 @@ def test_stray_frames_while_the_skeleton_stalls_are_no_new_skeleton():
     assert loop.status == Status.HOLDING and loop.counts["skeleton_changed"] == 0
     feed(loop.buffer, t)
     assert loop.frame(t) is not None and set(loop.skeleton.names) == set(NAMES)
+
+
+def test_a_frame_past_the_extrapolation_bound_carries_the_time_of_its_pose_not_the_frame_time():
+    """The buffer extrapolates at most max_extrapolation_s past its newest data, then holds: a frame simulated
+    on that held pose is stamped with the pose's time, never a newer one (issue 17: "never publishes a pose
+    under a stamp newer than the pose")."""
+    loop, t = running_loop()
+    newest = t - FRAME  # running_loop fed up to here
+    result = loop.frame(t)  # inside the bound: the pose is the frame's own time
+    assert result.pose_time_s == pytest.approx(t)
+    late = newest + loop.buffer.max_extrapolation_s + 0.05  # the data stalled: 0.05 s past the bound
+    result = loop.frame(late)
+    assert result is not None and result.reports
+    assert result.pose_time_s == pytest.approx(newest + loop.buffer.max_extrapolation_s)
+    assert result.pose_time_s < result.time_s

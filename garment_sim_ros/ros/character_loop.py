@@ -90,6 +90,9 @@ class FrameResult:
     step_s: float  # wall time of stepping (or dressing), s
     penetration_m: float  # deepest garment point inside a volume after the frame, m
     dressed: bool  # this frame put the garments on (first skeleton, new garments, after a gap)
+    # The time the skeleton pose is for, s: ``time_s``, or earlier when the buffer held its extrapolation
+    # (its newest data more than max_extrapolation behind): the stamp to publish under, never newer than the pose.
+    pose_time_s: float = math.nan
 
 
 class Throttle:
@@ -217,7 +220,8 @@ class CharacterLoop:
                 break
         step_s = time.perf_counter() - tic
         self._running(time_s)
-        return FrameResult(time_s, sample.pose, reports, frame_s, step_s, self.character.max_penetration(), False)
+        return FrameResult(time_s, sample.pose, reports, frame_s, step_s, self.character.max_penetration(), False,
+                           self._pose_time(time_s, sample.age_s))
 
     def _running(self, time_s: float) -> None:
         if self.status != Status.RUNNING:
@@ -324,7 +328,12 @@ class CharacterLoop:
         self._log("info", "dressed", f"dressed {', '.join(self.garments)} ({self.mass_points} mass points) on "
                                      f"{len(skeleton.names)} frames under {root!r}")
         self._running(time_s)
-        return FrameResult(time_s, sample.pose, [], 0.0, time.perf_counter() - tic, character.max_penetration(), True)
+        return FrameResult(time_s, sample.pose, [], 0.0, time.perf_counter() - tic, character.max_penetration(), True,
+                           self._pose_time(time_s, sample.age_s))
+
+    def _pose_time(self, time_s: float, age_s: float) -> float:
+        """When the sampled pose is for: the buffer extrapolates at most max_extrapolation_s past its data."""
+        return time_s - max(0.0, age_s - self.buffer.max_extrapolation_s)
 
     def _build(self, skeleton: Skeleton, pose: SkeletonPose) -> tuple[DressedCharacter, dict[str, str]]:
         prefix = self.frame_prefix

@@ -410,7 +410,7 @@ class GarmentSimNode(Node):
         tic = time.perf_counter()
         payload = frame_payload(self.loop.character, result.pose)
         v = self.values
-        stamp = seconds_to_stamp(result.time_s)
+        stamp = seconds_to_stamp(result.pose_time_s)  # the pose's time, never newer (issue 17)
         markers = frame_markers(payload, v["marker_namespace"], v["fixed_frame"], stamp, v["publish_volumes"])
         if self._clear_markers or result.dressed:  # garments or namespaces changed: drop the old markers
             markers.insert(0, MarkerData(ns="", id=0, type=0, action=DELETEALL, frame_id=v["fixed_frame"],
