@@ -35,7 +35,7 @@ from .params import SolverParams
 from .quality import GarmentMeter, free_point_depth
 from .body.canonical import local_transforms
 from .body.skeleton import forward_kinematics
-from .transforms import compose, inverse, quat_conjugate, quat_multiply, quat_rotate, quat_slerp, yaw_quat
+from .transforms import compose, inverse, quat_slerp, yaw_quat
 
 
 class DressedCharacter:
@@ -185,6 +185,4 @@ class DressedCharacter:
 def _in_root_frame(pose: SkeletonPose, joint_map) -> SkeletonPose:
     """``pose`` seen from its root frame (pelvis at the origin, heading along +x)."""
     position, yaw = root_frame(pose, joint_map)
-    turn = quat_conjugate(yaw_quat(yaw))
-    return SkeletonPose(pose.skeleton, quat_rotate(turn, pose.positions - position),
-                        quat_multiply(turn, pose.rotations))
+    return SkeletonPose(pose.skeleton, *compose(*inverse(position, yaw_quat(yaw)), pose.positions, pose.rotations))

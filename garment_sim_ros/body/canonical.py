@@ -26,7 +26,9 @@ from typing import Mapping
 
 import numpy as np
 
-from ..transforms import quat_between, quat_conjugate, quat_from_axis_angle, quat_from_matrix, quat_multiply, quat_rotate
+from ..transforms import (
+    IDENTITY_QUAT, quat_between, quat_conjugate, quat_from_axis_angle, quat_from_matrix, quat_multiply, quat_rotate,
+)
 from .skeleton import SkeletonPose, forward_kinematics
 
 ARM_DROP_DEG = 45.0  # A-pose: the arms this far below horizontal
@@ -60,21 +62,15 @@ def _foot_direction() -> np.ndarray:
 class _Tree:
     def __init__(self, pose: SkeletonPose):
         self.pose = pose
-        self.parents = pose.skeleton.parents
-        self.children = [[] for _ in self.parents]
-        for i, p in enumerate(self.parents):
+        self.children = [[] for _ in pose.skeleton.parents]
+        for i, p in enumerate(pose.skeleton.parents):
             if p >= 0:
                 self.children[p].append(i)
 
     def chain(self, top: int, bottom: int) -> list[int]:
         """Joints from ``top`` down to ``bottom`` (both included); empty if ``top`` is not above ``bottom``."""
-        path = [bottom]
-        while path[-1] != top:
-            parent = self.parents[path[-1]]
-            if parent < 0:
-                return []
-            path.append(parent)
-        return path[::-1]
+        path = [bottom, *self.pose.skeleton.ancestors(bottom)]
+        return path[:path.index(top) + 1][::-1] if top in path else []
 
     def distance(self, a: int, b: int) -> float:
         return float(np.linalg.norm(self.pose.positions[a] - self.pose.positions[b]))
@@ -102,26 +98,25 @@ def _bone_rules(tree: _Tree, index: Mapping[str, int]) -> dict[int, tuple[list[i
     head_children = tree.leaf_targets(head)
     if len(head_children) == 1:  # an end site or one head-top joint; a face rig's many bones say nothing
         rules[head] = (head_children, UP)
+    def limb(joints: list[int | None], direction: np.ndarray, end_direction: np.ndarray) -> None:
+        """Upper -> lower -> end joint along ``direction``; the end joint's children along ``end_direction``."""
+        upper, lower, end = joints
+        if lower is None:
+            return
+        rules[upper] = ([lower], direction)
+        if end is None:
+            return
+        rules[lower] = ([end], direction)
+        beyond = tree.leaf_targets(end)  # toes, fingers
+        if beyond:
+            rules[end] = (beyond, end_direction)
+
     for side, sign in (("left", 1.0), ("right", -1.0)):
-        leg = [index.get(f"{side}_{part}") for part in ("upper_leg", "lower_leg", "foot")]
-        if leg[1] is not None:
-            rules[leg[0]] = ([leg[1]], DOWN)
-            if leg[2] is not None:
-                rules[leg[1]] = ([leg[2]], DOWN)
-                toes = tree.leaf_targets(leg[2])
-                if toes:
-                    rules[leg[2]] = (toes, _foot_direction())
+        limb([index.get(f"{side}_{part}") for part in ("upper_leg", "lower_leg", "foot")], DOWN, _foot_direction())
         upper_arm = index[f"{side}_upper_arm"]
         along(tree.chain(chest, upper_arm)[1:], _clavicle_direction(sign))  # clavicles: outwards, rising
-        arm = [upper_arm, index.get(f"{side}_lower_arm"), index.get(f"{side}_hand")]
-        direction = _arm_direction(sign)
-        if arm[1] is not None:
-            rules[arm[0]] = ([arm[1]], direction)
-            if arm[2] is not None:
-                rules[arm[1]] = ([arm[2]], direction)
-                fingers = tree.leaf_targets(arm[2])
-                if fingers:
-                    rules[arm[2]] = (fingers, direction)
+        arm = _arm_direction(sign)
+        limb([upper_arm, index.get(f"{side}_lower_arm"), index.get(f"{side}_hand")], arm, arm)
     return rules
 
 
@@ -190,7 +185,7 @@ def canonical_pose(pose: SkeletonPose, joint_map: Mapping[str, str]) -> Skeleton
         return quat_rotate(quat_conjugate(pose.rotations[joint]), offsets.mean(axis=0))
 
     count = len(skeleton.names)
-    world_q = np.empty((count, 4))
+    world_q, local_q = np.empty((count, 4)), np.empty((count, 4))
     alignment = _body_alignment(pose, index)
     for i, parent in enumerate(skeleton.parents):
         q = quat_multiply(alignment, pose.rotations[i]) if parent < 0 else quat_multiply(world_q[parent], rotations[i])
@@ -206,13 +201,9 @@ def canonical_pose(pose: SkeletonPose, joint_map: Mapping[str, str]) -> Skeleton
             turn = _turn_about(bones[i][1], lateral, LEFT) if i in bones else quat_between(lateral, LEFT)
             q = quat_multiply(turn, q)
         world_q[i] = q / np.linalg.norm(q)
-    local_q = world_q.copy()
-    has_parent = np.asarray(skeleton.parents) >= 0
-    local_q[has_parent] = quat_multiply(quat_conjugate(world_q[np.asarray(skeleton.parents)[has_parent]]),
-                                        world_q[has_parent])
-    root_translation = translations.copy()
-    root_translation[~has_parent] = 0.0
-    standing = forward_kinematics(skeleton, root_translation, local_q)
+        local_q[i] = world_q[i] if parent < 0 else quat_multiply(quat_conjugate(world_q[parent]), world_q[i])
+    translations[np.asarray(skeleton.parents) < 0] = 0.0  # the root: placed by the shift below
+    standing = forward_kinematics(skeleton, translations, local_q)
     shift = np.array([-standing.positions[index["pelvis"], 0], -standing.positions[index["pelvis"], 1],
                       -standing.positions[:, 2].min()])
     return SkeletonPose(skeleton, standing.positions + shift, standing.rotations)
@@ -224,6 +215,6 @@ def _turn_about(axis: np.ndarray, vector: np.ndarray, goal: np.ndarray) -> np.nd
     a = vector - np.dot(vector, axis) * axis
     b = goal - np.dot(goal, axis) * axis
     if np.linalg.norm(a) < MIN_BONE_M or np.linalg.norm(b) < 1e-9:
-        return np.array([0.0, 0.0, 0.0, 1.0])
+        return IDENTITY_QUAT
     angle = math.atan2(float(np.dot(np.cross(a, b), axis)), float(np.dot(a, b)))
     return quat_from_axis_angle(axis, angle)
