@@ -36,6 +36,10 @@ class MotionSource:
     period: float | None = None  # s: the motion starts again every period (a looping clip), else None
     dropped_reference_frame: bool = False  # the clip's frame 0 was a reference pose, not played
 
+    def loop_index(self, t: float) -> int:
+        """Which pass through a looping clip time ``t`` falls in (0 for a source that does not loop)."""
+        return 0 if self.period is None else math.floor(t / self.period)
+
     def motion(self, t: float, window: float = MOTION_WINDOW_S) -> RootMotion:
         """Root motion at ``t`` from samples that never reach before the motion's start, past its end or
         across a loop's seam (one-sided there): a loop's seam is a jump, not motion."""
@@ -43,7 +47,7 @@ class MotionSource:
         if self.period is not None:
             # inside the loop by a hair at both ends: the period's own end is the next loop's start, and a
             # loop's start computed in floating point may land on the previous loop's end
-            loop_start = math.floor(t / self.period) * self.period
+            loop_start = self.loop_index(t) * self.period
             start, end = loop_start + 1e-9 * self.period, loop_start + (1.0 - 1e-9) * self.period
         return motion_from_poses(self.pose, self.joint_map, t, window, (start, end))
 

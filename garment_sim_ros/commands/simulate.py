@@ -65,7 +65,7 @@ def simulate_frames(source, character, times):
     yield t, pose, None
     for t_next in times:
         pose = source.pose(t_next)
-        if source.period is not None and math.floor(t_next / source.period) != math.floor(t / source.period):
+        if source.loop_index(t_next) != source.loop_index(t):
             character.dress(pose, t_next, source.motion(t_next))
             yield t_next, pose, None
         else:
