@@ -94,12 +94,12 @@ class Replay:
                                   body_file=v["body_file"], logger=logging.getLogger("garment_sim.replay"),
                                   catch_up_wall_s=math.inf, on_event=self._on_event)
         self.decoder = TFDecoder(v["frame_prefix"])
-        self.rerun = RerunLogger("save", path=rrd, recording_name=f"replay of {self.bag.name}",
-                                 every_n=v["rerun_every_n"])
         self.markers = None
-        if markers_bag is not None:
+        if markers_bag is not None:  # first: it refuses an existing folder before anything is written
             self.markers = BagWriter(markers_bag, storage)
             self.markers.add_topic(MARKERS_TOPIC, MARKER_ARRAY_TYPE)
+        self.rerun = RerunLogger("save", path=rrd, recording_name=f"replay of {self.bag.name}",
+                                 every_n=v["rerun_every_n"])
         self.frame_time = 0.0
         self.undecodable = 0
         self.marker_messages = 0
