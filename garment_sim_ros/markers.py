@@ -16,7 +16,7 @@ from typing import Sequence
 import numpy as np
 from numba import njit
 
-from .ros.marker_cdr import ADD, SPHERE, TRIANGLE_LIST, MarkerData
+from .ros.marker_cdr import ADD, DELETEALL, SPHERE, TRIANGLE_LIST, MarkerData
 from .shading import BODY_RGB
 
 VOLUME_ALPHA = 0.35  # see-through, so the garment inside a wide volume stays visible
@@ -77,9 +77,12 @@ def volume_markers(volumes: tuple, namespace: str, frame_id: str, stamp: tuple[i
 
 
 def frame_markers(payload: dict, namespace: str, frame_id: str, stamp: tuple[int, int],
-                  with_volumes: bool) -> list[MarkerData]:
-    """Every marker of one frame: the garments of ``payload["garments"]``, then (optionally) the volumes."""
-    markers = [garment_marker(mesh, namespace, frame_id, stamp) for mesh in payload["garments"]]
+                  with_volumes: bool, clear: bool = False) -> list[MarkerData]:
+    """Every marker of one frame: the garments of ``payload["garments"]``, then (optionally) the volumes;
+    first a DELETEALL when ``clear`` (the character was dressed again, the garments or namespaces changed:
+    the old markers go)."""
+    markers = [MarkerData(ns="", id=0, type=0, action=DELETEALL, frame_id=frame_id, stamp=stamp)] if clear else []
+    markers += [garment_marker(mesh, namespace, frame_id, stamp) for mesh in payload["garments"]]
     if with_volumes:
         markers += volume_markers(payload["volumes"], namespace, frame_id, stamp)
     return markers

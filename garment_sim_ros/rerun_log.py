@@ -4,41 +4,59 @@
 one process (two characters, a test beside a node) write separate recordings. Entity layout:
 
 - ``world``: view coordinates, right-handed z up (REP-103), static;
-- ``world/garments/<name>``: ``Mesh3D``, triangles static (re-sent when they change), vertex
-  positions, normals and colours per frame;
+- ``world/character``: a ``Transform3D`` under the pelvis (its x, y; z = 0, no rotation), every
+  frame: the default 3D view's origin, so the view follows the character wherever it walks;
+- ``world/garments/<name>``: ``Mesh3D``; triangles and the garment's colour static (re-sent when
+  the triangles change), vertex positions and normals per frame (the viewer lights the mesh);
 - ``world/body/volumes``: ``Ellipsoids3D`` (see ``volume_ellipsoids`` for the shapes shown);
 - ``world/body/skeleton``: ``LineStrips3D``, one two-point strip per bone;
+- ``frame/<figure>``: ``Scalars``: ``fps`` (simulated frames per wall second), ``lag_ms`` (the
+  garments behind the skeleton), ``substeps``, ``penetration_mm`` (deepest garment point in a volume);
 - ``timings/<stage>``: ``Scalars``, milliseconds;
 - ``quality/<garment>/<figure>``: ``Scalars``, how well each garment stays on (``quality.report_scalars``:
   ``depth_mm``, ``bones_through``, ``legs_off``, stretch p99 and max, ``guard``);
+- ``input/<figure>``: ``Scalars``, the /tf input (``lag_ms``, ``backlog``);
+- ``events``: ``TextLog``: dressing, teleports, re-dresses, holds, guard recoveries, parameter changes;
 
-all on the ``sim_time`` timeline (seconds of the node's clock, a duration), with a blueprint: the 3D
-view beside the timing and quality plots.
+all on the ``sim_time`` timeline as timestamps (the stamp of the pose a frame was simulated on, in
+the node's clock), with a blueprint: the 3D view that follows the character above the events,
+beside the plots. ``every_n`` > 1 logs the 3D data (meshes, volumes, skeleton) of every n-th frame
+only: the recording shrinks about n times; scalars and events are logged every frame.
 
 ``frame_payload(character, pose)`` builds ``log_frame``'s arguments from a ``DressedCharacter``
-and a ``SkeletonPose``; the node, the demo and ``garment-sim snapshot`` share it.
+and a ``SkeletonPose``; the node, the demo, ``garment-sim replay`` and ``garment-sim snapshot`` share
+it; ``log_result`` logs a ``CharacterLoop`` frame (the node and the replay).
 """
 
 from __future__ import annotations
 
 import math
 import re
+import time
 import uuid
+from collections import deque
 from pathlib import Path
 from typing import Mapping, Sequence
 
 import numpy as np
 
 from .collision.volumes import CAPSULE, ELLIPSOID, VolumeSet
+from .quality import report_scalars
 from .shading import BODY_RGB, DEFAULT_LIGHT_DIR, SKELETON_RGB, garment_color, shade
 from .transforms import quat_rotate
 
 SINKS = ("off", "save", "connect", "serve")
 TIMELINE = "sim_time"
+CHARACTER_ENTITY = "world/character"
+EVENTS_ENTITY = "events"
+FPS_WINDOW_S = 1.0
+SAVE_FLUSH_TICK_S = 1.0  # a saved recording's chunks: at most a second...
+SAVE_FLUSH_BYTES = 2 << 20  # ...or 2 MiB of data (Rerun's object-store target chunk size)  # fps: simulated frames in the last second of wall time
 DEFAULT_CONNECT_URL = "rerun+http://127.0.0.1:9876/proxy"
 _URL_SCHEMES = ("rerun://", "rerun+http://", "rerun+https://")
 _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")  # one entity-path part, no escaping needed
 SKELETON_LINE_RADIUS_M = 0.006
+_TEXT_LOG_LEVELS = {"info": "INFO", "warning": "WARN", "error": "ERROR"}
 
 
 class RerunLogger:
@@ -51,12 +69,13 @@ class RerunLogger:
       - ``"serve"``: serve the stream over gRPC on ``port`` (default 9876) for viewers to connect to.
         Opt-in: Rerun 0.41 binds the server to 0.0.0.0, so the stream is exposed on EVERY network
         interface of the machine, to anyone who can reach the port.
-    ``path`` is read only by ``save``, ``url`` by ``connect``, ``port`` by ``serve``.
+    ``path`` is read only by ``save``, ``url`` by ``connect``, ``port`` by ``serve``. ``every_n``
+    (frames, >= 1): the 3D data of every n-th ``log_frame`` only (it can change at any time).
     """
 
     def __init__(self, sink: str = "off", path: str | Path | None = None, url: str | None = None,
                  application_id: str = "garment_sim", recording_name: str = "garment_sim",
-                 port: int | None = None):
+                 port: int | None = None, every_n: int = 1):
         if sink not in SINKS:
             raise ValueError(f"RerunLogger: unknown sink {sink!r}; allowed: {', '.join(SINKS)}")
         for label, value in (("application_id", application_id), ("recording_name", recording_name)):
@@ -65,8 +84,11 @@ class RerunLogger:
         self.sink = sink
         self.path: Path | None = None
         self.url: str | None = None
+        self.every_n = every_n
         self._stream = None
-        self._triangles: dict[str, np.ndarray] = {}
+        self._static: dict[str, np.ndarray] = {}  # what each entity's static part was logged with
+        self._frames = 0
+        self._frame_walls: deque[float] = deque()  # wall times of the last second's log_result calls
         if sink == "off":
             return
         if sink == "save":
@@ -89,7 +111,11 @@ class RerunLogger:
         import rerun as rr
 
         self._rr = rr
-        self._stream = rr.RecordingStream(application_id, recording_id=uuid.uuid4())
+        # A file is read after the run: batch a second's data (or 2 MiB) per chunk, not the live default
+        # of 8 ms: ~25x fewer chunks, a seventh less schema overhead, what `rerun rrd optimize` would do.
+        batching = rr.ChunkBatcherConfig(flush_tick=SAVE_FLUSH_TICK_S, flush_num_bytes=SAVE_FLUSH_BYTES) \
+            if sink == "save" else None
+        self._stream = rr.RecordingStream(application_id, recording_id=uuid.uuid4(), batcher_config=batching)
         blueprint = _blueprint()
         if sink == "save":
             self._stream.save(self.path, default_blueprint=blueprint)
@@ -98,23 +124,39 @@ class RerunLogger:
         else:
             self.url = self._stream.serve_grpc(grpc_port=port, default_blueprint=blueprint)
         self._stream.send_recording_name(recording_name)
-        self._stream.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+        for entity in ("world", CHARACTER_ENTITY):  # the up axis of both views' origins
+            self._stream.log(entity, rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
 
     @property
     def enabled(self) -> bool:
         return self._stream is not None
 
+    @property
+    def every_n(self) -> int:
+        return self._every_n
+
+    @every_n.setter
+    def every_n(self, value: int) -> None:
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise ValueError(f"RerunLogger: every_n must be an integer >= 1, got {value!r}")
+        self._every_n = value
+
     def log_frame(self, time_s: float, garments: Sequence[tuple] = (), volumes: tuple | None = None,
                   skeleton_segments: np.ndarray | None = None, timings_ms: Mapping[str, float] | None = None,
                   quality: Mapping[str, Mapping[str, float]] | None = None,
-                  inputs: Mapping[str, float] | None = None) -> None:
+                  inputs: Mapping[str, float] | None = None, frame: Mapping[str, float] | None = None,
+                  pelvis: np.ndarray | None = None) -> None:
         """Log one frame at ``time_s`` (s, the node's clock) on the ``sim_time`` timeline.
 
         ``garments``: ``(name, positions (N,3), normals (N,3), triangles (T,3) int, colors (N,3) uint8)``
-        each; ``volumes``: ``(centers (V,3), rotations (V,4) xyzw, half_sizes (V,3))``;
-        ``skeleton_segments``: ``(S, 2, 3)``; ``timings_ms``: ``{stage: milliseconds}``;
-        ``quality``: ``{garment: {figure: value}}`` (``quality.report_scalars``); ``inputs``: the /tf
-        input at this frame, ``{figure: value}`` (the node's ``lag_ms``, ms, and ``backlog``, messages).
+        each (``colors``, shaded for the markers, are checked but not logged: the viewer lights the
+        mesh in the garment's colour, ``shading.garment_color``); ``volumes``: ``(centers (V,3),
+        rotations (V,4) xyzw, half_sizes (V,3))``; ``skeleton_segments``: ``(S, 2, 3)``;
+        ``timings_ms``: ``{stage: milliseconds}``; ``quality``: ``{garment: {figure: value}}``
+        (``quality.report_scalars``); ``inputs``: the /tf input at this frame, ``{figure: value}``
+        (the node's ``lag_ms``, ms, and ``backlog``, messages); ``frame``: ``{figure: value}`` under
+        ``frame/`` (``log_result``'s fps, lag, substeps, penetration); ``pelvis``: (3,) m, where
+        ``world/character`` (the 3D view's origin) goes.
         """
         if self._stream is None:
             return
@@ -126,34 +168,93 @@ class RerunLogger:
             volumes = _check_volumes(volumes)
         if skeleton_segments is not None:
             skeleton_segments = _check_array("skeleton_segments", skeleton_segments, (None, 2, 3), float)
+        if pelvis is not None:
+            pelvis = _check_array("pelvis", pelvis, (3,), float)
         timings = _check_timings(timings_ms or {})
         figures = {_check_name("garment name", name): _check_timings(values, "quality figure", "")
                    for name, values in (quality or {}).items()}
         input_figures = _check_timings(inputs or {}, "input figure", "")
+        frame_figures = _check_timings(frame or {}, "frame figure", "")
 
-        stream.set_time(TIMELINE, duration=float(time_s))
-        for name, positions, normals, triangles, colors in checked:
-            entity = f"world/garments/{name}"
-            known = self._triangles.get(name)
-            if known is None or known.shape != triangles.shape or not np.array_equal(known, triangles):
-                stream.log(entity, rr.Mesh3D.from_fields(triangle_indices=triangles.astype(np.uint32)), static=True)
-                self._triangles[name] = triangles.copy()
-            stream.log(entity, rr.Mesh3D.from_fields(vertex_positions=positions, vertex_normals=normals,
-                                                     vertex_colors=colors))
-        if volumes is not None:
-            centers, rotations, half_sizes = volumes
-            stream.log("world/body/volumes", rr.Ellipsoids3D(centers=centers, quaternions=rotations,
-                                                             half_sizes=half_sizes, colors=[BODY_RGB]))
-        if skeleton_segments is not None:
-            stream.log("world/body/skeleton", rr.LineStrips3D(skeleton_segments, radii=SKELETON_LINE_RADIUS_M,
-                                                              colors=[SKELETON_RGB]))
-        for stage, value in timings.items():
-            stream.log(f"timings/{stage}", rr.Scalars(value))
+        stream.set_time(TIMELINE, timestamp=float(time_s))
+        if pelvis is not None:  # on the floor under the pelvis: the view's grid stays the floor
+            stream.log(CHARACTER_ENTITY, rr.Transform3D(translation=[pelvis[0], pelvis[1], 0.0]))
+        if self._frames % self._every_n == 0:
+            for name, positions, normals, triangles, _colors in checked:
+                entity = f"world/garments/{name}"
+                self._log_static(entity, triangles, lambda: rr.Mesh3D.from_fields(
+                    triangle_indices=triangles.astype(np.uint32), albedo_factor=garment_color(name)))
+                stream.log(entity, rr.Mesh3D.from_fields(vertex_positions=positions, vertex_normals=normals))
+            if volumes is not None:
+                centers, rotations, half_sizes = volumes
+                self._log_static("world/body/volumes", half_sizes, lambda: rr.Ellipsoids3D.from_fields(
+                    half_sizes=half_sizes, colors=[BODY_RGB]))
+                stream.log("world/body/volumes", rr.Ellipsoids3D.from_fields(centers=centers, quaternions=rotations))
+            if skeleton_segments is not None:
+                self._log_static("world/body/skeleton", np.zeros(0), lambda: rr.LineStrips3D.from_fields(
+                    radii=SKELETON_LINE_RADIUS_M, colors=[SKELETON_RGB]))
+                stream.log("world/body/skeleton", rr.LineStrips3D.from_fields(strips=skeleton_segments))
+        self._frames += 1
+        for group, values in (("timings", timings), ("input", input_figures), ("frame", frame_figures)):
+            for figure, value in values.items():
+                stream.log(f"{group}/{figure}", rr.Scalars(value))
         for name, values in figures.items():
             for figure, value in values.items():
                 stream.log(f"quality/{name}/{figure}", rr.Scalars(value))
-        for figure, value in input_figures.items():
-            stream.log(f"input/{figure}", rr.Scalars(value))
+
+    def _log_static(self, entity: str, key: np.ndarray, archetype) -> None:
+        """Log ``archetype()`` as ``entity``'s static data the first time and whenever ``key`` changes
+        (a garment's triangles, the volumes' sizes after a new body), never again otherwise."""
+        known = self._static.get(entity)
+        if known is None or known.shape != key.shape or not np.array_equal(known, key):
+            self._stream.log(entity, archetype(), static=True)
+            self._static[entity] = np.array(key, copy=True)
+
+    def log_event(self, time_s: float, level: str, kind: str, message: str) -> None:
+        """A ``TextLog`` entry on ``events`` at ``time_s``: ``level`` ``info``, ``warning`` or ``error``;
+        ``kind`` a short name (``teleported``, ``guard``, ``parameters``...) shown before the message."""
+        if self._stream is None:
+            return
+        if level not in _TEXT_LOG_LEVELS:
+            raise ValueError(f"log_event: level {level!r}; allowed: {', '.join(_TEXT_LOG_LEVELS)}")
+        if isinstance(time_s, bool) or not isinstance(time_s, (int, float)) or not math.isfinite(time_s):
+            raise ValueError(f"log_event: time_s must be a finite number of seconds, got {time_s!r}")
+        self._stream.set_time(TIMELINE, timestamp=float(time_s))
+        self._stream.log(EVENTS_ENTITY, self._rr.TextLog(f"{kind}: {message}", level=_TEXT_LOG_LEVELS[level]))
+
+    def log_result(self, result, character, payload: Mapping, publish_s: float = 0.0,
+                   inputs: Mapping[str, float] | None = None) -> None:
+        """Log a ``CharacterLoop`` frame (``FrameResult``) of ``character`` (``DressedCharacter``) with its
+        ``frame_payload``: at the time of the pose it was simulated on, the stage timings, each
+        garment's quality, the ``frame/`` figures, and the guard's recoveries as events.
+        ``publish_s``: the markers' publish time, s; ``inputs``: as ``log_frame``'s."""
+        if self._stream is None:
+            return
+        now = time.perf_counter()
+        self._frame_walls.append(now)
+        while now - self._frame_walls[0] > FPS_WINDOW_S:
+            self._frame_walls.popleft()
+        span = now - self._frame_walls[0]
+        reports = result.reports
+        frame = {"penetration_mm": 1e3 * result.penetration_m}
+        if span > 0.0:
+            frame["fps"] = (len(self._frame_walls) - 1) / span
+        timings, quality = {}, {}
+        if reports:  # a dressing frame has none
+            frame["lag_ms"] = 1e3 * max(r.lag_s for r in reports)
+            frame["substeps"] = float(max(r.substeps for r in reports))
+            timings = {"integration": sum(r.integration_s for r in reports),
+                       "correction": sum(r.correction_s for r in reports),
+                       "collision": sum(r.collision_s for r in reports)}
+            quality = {solver.model.name: report_scalars(report)
+                       for solver, report in zip(character.solvers, reports)}
+        timings["publish"] = publish_s
+        time_s = result.pose_time_s if math.isfinite(result.pose_time_s) else result.time_s
+        self.log_frame(time_s, timings_ms={k: 1e3 * s for k, s in timings.items()}, quality=quality,
+                       inputs=inputs, frame=frame, **payload)
+        for solver, report in zip(character.solvers, reports):
+            if report.recovery:
+                self.log_event(time_s, "warning", "guard", f"{solver.model.name}: the step went bad, {report.recovery}")
 
     def close(self) -> None:
         """Flush everything logged and end the stream (a saved file is complete after this)."""
@@ -170,14 +271,25 @@ class RerunLogger:
 
 
 def _blueprint():
+    """The 3D view's origin is ``world/character`` (under the pelvis) and it shows all of ``world``:
+    the character stays in the middle of the view at every moment, the world passes by."""
     import rerun.blueprint as rrb
 
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Spatial3DView(origin="world", name="dressed character"),
             rrb.Vertical(
-                rrb.TimeSeriesView(origin="timings", name="stage timings [ms]"),
+                rrb.Spatial3DView(origin=CHARACTER_ENTITY, contents="/world/**",
+                                  name="dressed character (the view follows the pelvis)"),
+                rrb.TextLogView(origin=EVENTS_ENTITY, name="events"),
+                row_shares=[4, 1],
+            ),
+            rrb.Vertical(
+                rrb.TimeSeriesView(origin="frame", contents=["/frame/fps", "/frame/substeps"],
+                                   name="frames per second, substeps per frame"),
+                rrb.TimeSeriesView(origin="frame", contents=["/frame/lag_ms", "/frame/penetration_mm"],
+                                   name="garment lag [ms], penetration [mm]"),
                 rrb.TimeSeriesView(origin="quality", name="garment quality"),
+                rrb.TimeSeriesView(origin="timings", name="stage timings [ms]"),
                 rrb.TimeSeriesView(origin="input", name="/tf input: lag [ms], backlog"),
             ),
             column_shares=[3, 2],
@@ -312,10 +424,11 @@ def garment_meshes(character, light_dir=DEFAULT_LIGHT_DIR) -> list[tuple]:
 
 
 def frame_payload(character, pose, light_dir=DEFAULT_LIGHT_DIR) -> dict:
-    """``log_frame``'s arguments (``garments``, ``volumes``, ``skeleton_segments``) for a
+    """``log_frame``'s arguments (``garments``, ``volumes``, ``skeleton_segments``, ``pelvis``) for a
     ``DressedCharacter`` at its last frame and the ``SkeletonPose`` it was stepped to."""
     return {
         "garments": garment_meshes(character, light_dir),
         "volumes": volume_ellipsoids(character.body.volumes, pose),
         "skeleton_segments": skeleton_segments(pose),
+        "pelvis": pose.frame(character.joint_map["pelvis"])[0],
     }

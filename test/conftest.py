@@ -21,6 +21,7 @@ rclpy is imported only when a test asks for the fixture, so ROS-free tests do no
 from __future__ import annotations
 
 import os
+from contextlib import contextmanager
 
 import pytest
 
@@ -28,16 +29,24 @@ import pytest
 TEST_DOMAIN_ID = 1 + os.getpid() % 232
 
 
-@pytest.fixture
-def ros_context(monkeypatch):
+@contextmanager
+def local_ros_context():
+    """An rclpy context on this machine's test domain (the environment set for its duration)."""
     import rclpy
     from rclpy.context import Context
 
-    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    monkeypatch.setenv("ROS_DOMAIN_ID", str(TEST_DOMAIN_ID))
-    context = Context()
-    rclpy.init(context=context, domain_id=TEST_DOMAIN_ID)
-    try:
+    with pytest.MonkeyPatch.context() as monkeypatch:
+        monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+        monkeypatch.setenv("ROS_DOMAIN_ID", str(TEST_DOMAIN_ID))
+        context = Context()
+        rclpy.init(context=context, domain_id=TEST_DOMAIN_ID)
+        try:
+            yield context
+        finally:
+            context.try_shutdown()
+
+
+@pytest.fixture
+def ros_context():
+    with local_ros_context() as context:
         yield context
-    finally:
-        context.try_shutdown()

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -89,8 +90,54 @@ def test_node_dresses_the_walking_character_and_publishes_its_garments(graph, tm
                              capture_output=True, text=True, timeout=60).stdout
     for entity in ("/world/garments/pants", "/world/garments/short_skirt", "/world/body/volumes",
                    "/timings/collision", "/timings/publish", "/quality/pants/bones_through",
-                   "/quality/short_skirt/structural_stretch_p99", "/input/backlog", "/input/lag_ms"):
+                   "/quality/short_skirt/structural_stretch_p99", "/input/backlog", "/input/lag_ms",
+                   "/frame/fps", "/frame/lag_ms", "/frame/substeps", "/frame/penetration_mm", "/world/character",
+                   "/events"):
         assert f" - {entity} " in listing, entity
+
+
+def test_the_rerun_recording_holds_the_nodes_events_on_the_timeline(graph, tmp_path):
+    """Dressing, a stale hold, the resume and a parameter change are text entries at their times;
+    rerun_every_n thins the 3D data, not the scalars."""
+    from rerun.chunk import RrdReader
+
+    recording = tmp_path / "events.rrd"
+    node = garment_node(graph, rerun_sink="save", rerun_path=str(recording))
+    player = SkeletonPublisher(graph.context)
+    graph.add(player.node)
+    assert graph.spin_until(running(node, 10), 20.0), node.loop.detail
+    assert node.set_parameters([Parameter("rerun_every_n", value=4)])[0].successful
+    frames = node.stats.total_frames
+    assert graph.spin_until(lambda: node.stats.total_frames >= frames + 40, 5.0)
+    player.running = False  # the skeleton goes stale: the garments hold
+    assert graph.spin_until(lambda: node.loop.status == Status.HOLDING, 5.0)
+    graph.spin_for(0.3)
+    player.running = True
+    assert graph.spin_until(lambda: node.loop.status == Status.RUNNING, 5.0)
+    graph.remove(node)
+
+    events, meshes, fps = [], [], []
+    for chunk in RrdReader(str(recording)).stream():
+        batch = chunk.to_record_batch()
+        times = [t.value * 1e-9 for t in batch.column("sim_time")] if "sim_time" in batch.schema.names else None
+        if chunk.entity_path == "/events":
+            events += zip(times, [t[0] for t in batch.column("TextLog:text").to_pylist()])
+        elif chunk.entity_path == "/world/garments/pants" and not chunk.is_static:
+            meshes += times
+        elif chunk.entity_path == "/frame/fps":
+            fps += times
+    kinds = [text.split(":")[0] for _, text in sorted(events)]
+    assert kinds.count("dressed") == 1 and kinds.count("parameters") == 1
+    (change,) = [text for _, text in events if text.startswith("parameters")]
+    assert change == "parameters: rerun_every_n=4"
+    assert kinds.count("stale") == 1  # the hold: one entry, not one per held frame
+    assert kinds.index("dressed") < kinds.index("parameters") < kinds.index("stale") < len(kinds) - 1
+    assert kinds[-1] == "status"  # "simulating ... " again after the hold
+    # the stamps are the node's clock (now), as timestamps, and the 3D data thinned after the change
+    assert abs(max(t for t, _ in events) - time.time()) < 30.0
+    change_time = next(t for t, text in events if text.startswith("parameters"))
+    after = [t for t in meshes if t > change_time + 0.05]
+    assert len(after) < 0.4 * len([t for t in fps if t > change_time + 0.05])
 
 
 def test_parameter_changes_apply_at_the_next_frame_and_bad_ones_are_refused(graph):

@@ -52,17 +52,21 @@ def test_saved_recording_holds_mesh_volumes_skeleton_and_timings(tmp_path):
     rows = read_back(path)
 
     positions = rows[("/world/garments/square", "Mesh3D:vertex_positions", False)]
-    assert [t.total_seconds() for t, _ in positions] == [0.5, 0.75]  # on the sim_time timeline
+    # on the sim_time timeline, as timestamps (seconds since 1970), not durations
+    assert [t.timestamp() for t, _ in positions] == [0.5, 0.75]
     assert len(positions[1][1]) == 16
     assert positions[1][1][0][2] == pytest.approx(1.1)
     assert len(rows[("/world/garments/square", "Mesh3D:vertex_normals", False)][0][1]) == 16
-    assert len(rows[("/world/garments/square", "Mesh3D:vertex_colors", False)][0][1]) == 16
-    # triangles are static, sent once
+    # what does not change is static, sent once: triangles, the garment's colour (the viewer lights it),
+    # the volumes' sizes and colour, the bones' radius and colour
     triangles = rows[("/world/garments/square", "Mesh3D:triangle_indices", True)]
     assert len(triangles) == 1 and len(triangles[0][1]) == 18
+    assert len(rows[("/world/garments/square", "Mesh3D:albedo_factor", True)]) == 1
+    assert not any(key[0].startswith("/world") and key[2] is False and key[1].split(":")[1] in (
+        "triangle_indices", "vertex_colors", "albedo_factor", "half_sizes", "colors", "radii") for key in rows)
     assert [v for _, v in rows[("/timings/integration", "Scalars:scalars", False)]] == [[1.5], [2.5]]
     assert [v for _, v in rows[("/timings/collision", "Scalars:scalars", False)]] == [[0.25], [0.25]]
-    half_sizes = rows[("/world/body/volumes", "Ellipsoids3D:half_sizes", False)][0][1]
+    half_sizes = rows[("/world/body/volumes", "Ellipsoids3D:half_sizes", True)][0][1]
     assert np.allclose(half_sizes, volumes[2])
     strips = rows[("/world/body/skeleton", "LineStrips3D:strips", False)][0][1]
     assert np.allclose(strips, segments)
@@ -169,3 +173,36 @@ def test_the_tf_input_is_logged_as_scalars(tmp_path):
     rows = read_back(path)
     assert [v for _, v in rows[("/input/lag_ms", "Scalars:scalars", False)]] == [[7.5]]
     assert [v for _, v in rows[("/input/backlog", "Scalars:scalars", False)]] == [[3.0]]
+
+
+def test_every_nth_frame_logs_the_3d_data_and_every_frame_the_scalars_and_the_view_origin(tmp_path):
+    path = tmp_path / "every.rrd"
+    garment = square_garment()
+    with RerunLogger("save", path=path, every_n=3) as logger:
+        for k in range(7):
+            logger.log_frame(0.1 * k, [garment], pelvis=np.array([0.5 * k, 0.2, 0.9]), frame={"fps": 60.0 + k})
+        logger.every_n = 1  # changeable at run time (the node's rerun_every_n parameter)
+        logger.log_frame(0.8, [garment])
+        with pytest.raises(ValueError, match="every_n"):
+            logger.every_n = 0
+    rows = read_back(path)
+    meshes = rows[("/world/garments/square", "Mesh3D:vertex_positions", False)]
+    assert [round(t.timestamp(), 6) for t, _ in meshes] == [0.0, 0.3, 0.6, 0.8]
+    assert [v for _, v in rows[("/frame/fps", "Scalars:scalars", False)]] == [[60.0 + k] for k in range(7)]
+    # the view's origin: on the floor under the pelvis, every frame
+    origin = rows[("/world/character", "Transform3D:translation", False)]
+    assert np.allclose([v for _, v in origin], [[[0.5 * k, 0.2, 0.0]] for k in range(7)])  # float32
+
+
+def test_events_are_text_log_entries_on_the_timeline(tmp_path):
+    path = tmp_path / "events.rrd"
+    with RerunLogger("save", path=path) as logger:
+        logger.log_event(2.0, "warning", "teleported", "the root jumped 3.1 m")
+        logger.log_event(2.5, "info", "parameters", "air_damping=2.5")
+        with pytest.raises(ValueError, match="level 'loud'"):
+            logger.log_event(3.0, "loud", "x", "y")
+    rows = read_back(path)
+    texts = rows[("/events", "TextLog:text", False)]
+    assert [(t.timestamp(), v) for t, v in texts] == [(2.0, ["teleported: the root jumped 3.1 m"]),
+                                                     (2.5, ["parameters: air_damping=2.5"])]
+    assert [v for _, v in rows[("/events", "TextLog:level", False)]] == [["WARN"], ["INFO"]]

@@ -27,6 +27,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--resolution", type=float, default=1.0, help="garment resolution factor")
     parser.add_argument("--rrd", default="out/demo.rrd", help="where to save the Rerun recording")
     parser.add_argument("--rate", type=float, default=60.0, help="the node's frame rate, Hz")
+    parser.add_argument("--rerun-every-n", type=int, default=1,
+                        help="log the 3D data of every n-th frame to the recording (default 1: every frame)")
     parser.add_argument("--json", action="store_true", help="print the summary as one JSON object")
 
 
@@ -36,10 +38,12 @@ def _progress(message: str) -> None:
 
 def run(args) -> int:
     from ..commands.simulate import parse_garments
+    from ..ros.settings import check_value
 
     garments = parse_garments(args.garments)
     if not args.duration > 0:
         raise ValueError(f"--duration must be > 0, got {args.duration}")
+    check_value("rerun_every_n", args.rerun_every_n)  # a bad value: a message naming the range
     if args.bvh and not Path(args.bvh).is_file():
         raise ValueError(f"--bvh: no such file {args.bvh!r}")
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")  # a demo talks to itself only
@@ -59,7 +63,7 @@ def run(args) -> int:
     executor = SingleThreadedExecutor(context=context)
     player_parameters = {"bvh": args.bvh, "gait": args.gait, "speed": float(args.speed), "loop": True}
     node_parameters = {"garments": garments, "resolution": float(args.resolution), "rate_hz": float(args.rate),
-                       "rerun_sink": "save", "rerun_path": str(args.rrd)}
+                       "rerun_sink": "save", "rerun_path": str(args.rrd), "rerun_every_n": args.rerun_every_n}
     player = SkeletonPlayer(context=context,
                             parameter_overrides=[Parameter(k, value=v) for k, v in player_parameters.items()])
     node = GarmentSimNode(context=context,

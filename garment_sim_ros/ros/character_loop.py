@@ -115,8 +115,12 @@ class CharacterLoop:
 
     def __init__(self, buffer: PoseBuffer, params: SolverParams, garments: Sequence[str], resolution: float,
                  frame_prefix: str = "", root_frame: str = "", joint_map_file: str = "", logger=None,
-                 catch_up_wall_s: float = CATCH_UP_WALL_S, body_file: str = ""):
+                 catch_up_wall_s: float = CATCH_UP_WALL_S, body_file: str = "", on_event=None):
         self.buffer = buffer
+        # on_event(level, kind, message): every logged event, unthrottled, but a run of the same kind
+        # (a hold logs every frame) only once: the Rerun recording's text log
+        self.on_event = on_event
+        self._last_event = ""
         self.params = params
         self.garments = list(garments)
         self.resolution = float(resolution)
@@ -371,6 +375,9 @@ class CharacterLoop:
         return "", ""
 
     def _log(self, level: str, key: str, message: str) -> None:
+        if self.on_event is not None and key != self._last_event:
+            self.on_event(level, key, message)
+        self._last_event = key
         if self.logger is None or not self.throttle.ready(key):
             return
         # one call per severity: rclpy's logger refuses two severities from one line of code

@@ -9,7 +9,8 @@ Wires topics, parameters and timers to the ROS-free modules:
 - a timer at ``rate_hz``: ``T_next = D_last + now`` (the node's clock, so ``use_sim_time`` works;
   ``D_last`` the last tick's compute time) -> ``CharacterLoop.frame(T_next)`` -> the garments (and
   body volumes) on ``~/markers`` as a serialized ``visualization_msgs/MarkerArray`` stamped
-  ``T_next`` in ``fixed_frame``, and to Rerun when ``rerun_sink`` is not off.
+  ``T_next`` in ``fixed_frame``, and to Rerun when ``rerun_sink`` is not off (with the loop's
+  events, guard recoveries and parameter changes as text entries).
 - ``/diagnostics`` (``diagnostic_msgs/DiagnosticArray``) every ``diagnostics_period``: fps, substeps,
   lag, stage times, penetration, the garments' quality (``bones_through``, ``bones_through_frames``,
   ``legs_off``, structural and shear stretch p99 and max: ``ros.frame_stats``), skeleton age,
@@ -50,11 +51,10 @@ from visualization_msgs.msg import MarkerArray
 from ..body.pose_buffer import PoseBuffer
 from ..markers import frame_markers
 from ..params import Param, ParameterError, SolverParams
-from ..quality import report_scalars
 from ..rerun_log import RerunLogger, frame_payload
 from .character_loop import CharacterLoop, FrameResult, Status, Throttle
 from .frame_stats import FrameStats
-from .marker_cdr import DELETEALL, MarkerData, serialize_marker_array
+from .marker_cdr import serialize_marker_array
 from .params_file import FileWatch, ParamsFileError, read_node_parameters
 from .settings import ALL_PARAMETERS, PARAMETER_ROWS, SOLVER_PARAMETER_NAMES, is_read_only
 from .tf_input import IngestResult, TFDecoder, TransformBatch, ingest, ingest_batch, seconds_to_stamp
@@ -137,7 +137,7 @@ class GarmentSimNode(Node):
         self.loop = CharacterLoop(self.buffer, self.solver_params, v["garments"], v["resolution"],
                                   frame_prefix=v["frame_prefix"], root_frame=v["root_frame"],
                                   joint_map_file=v["joint_map_file"], body_file=v["body_file"],
-                                  logger=self.get_logger())
+                                  logger=self.get_logger(), on_event=self._on_loop_event)
         self.stats = FrameStats()
         self.input_counts: Counter[str] = Counter()  # transforms stored / of other characters / refused
         self.frame_errors = 0
@@ -148,6 +148,7 @@ class GarmentSimNode(Node):
         self._pending: dict[str, Any] = {}
         self._clear_markers = False
         self._last_compute_s = 0.0
+        self._frame_time = 0.0  # the frame being computed (T_next), s: the time of the loop's events
         self._watch: FileWatch | None = None
 
         # raw: the bytes are decoded by ``TFDecoder`` (numpy), never into Python message objects
@@ -245,6 +246,10 @@ class GarmentSimNode(Node):
             self.loop.set_garments(self.values["garments"], self.values["resolution"])
         if any(key in changes for key in _CLEAR_KEYS):
             self._clear_markers = True
+        if self.rerun is not None:
+            self.rerun.every_n = self.values["rerun_every_n"]
+            self.rerun.log_event(self._frame_time, "info", "parameters",
+                                 ", ".join(f"{name}={_plain(value)!r}" for name, value in sorted(changes.items())))
         self.buffer.max_age_s = self.values["max_skeleton_age"]
         self.buffer.max_extrapolation_s = self.values["max_extrapolation"]
 
@@ -393,8 +398,8 @@ class GarmentSimNode(Node):
         try:
             self._absorb_tf()  # the newest /tf first, however the executor scheduled the callbacks
             self._apply_pending()
-            frame_time = self._last_compute_s + self.get_clock().now().nanoseconds * 1e-9  # T_next
-            result = self.loop.frame(frame_time)
+            self._frame_time = self._last_compute_s + self.get_clock().now().nanoseconds * 1e-9  # T_next
+            result = self.loop.frame(self._frame_time)
             if result is not None:
                 self._publish_frame(result)
                 dressed = result.dressed
@@ -411,11 +416,9 @@ class GarmentSimNode(Node):
         payload = frame_payload(self.loop.character, result.pose)
         v = self.values
         stamp = seconds_to_stamp(result.pose_time_s)  # the pose's time, never newer (issue 17)
-        markers = frame_markers(payload, v["marker_namespace"], v["fixed_frame"], stamp, v["publish_volumes"])
-        if self._clear_markers or result.dressed:  # garments or namespaces changed: drop the old markers
-            markers.insert(0, MarkerData(ns="", id=0, type=0, action=DELETEALL, frame_id=v["fixed_frame"],
-                                         stamp=stamp))
-            self._clear_markers = False
+        markers = frame_markers(payload, v["marker_namespace"], v["fixed_frame"], stamp, v["publish_volumes"],
+                                clear=self._clear_markers or result.dressed)
+        self._clear_markers = False
         self.marker_publisher.publish(serialize_marker_array(markers))
         publish_s = time.perf_counter() - tic
         self.stats.record_frame(result.reports, result.frame_s, result.penetration_m)
@@ -429,18 +432,16 @@ class GarmentSimNode(Node):
             self._log_rerun(result, payload, publish_s)
 
     def _log_rerun(self, result: FrameResult, payload: dict, publish_s: float) -> None:
-        reports = result.reports
-        timings_ms = {"integration": sum(r.integration_s for r in reports),
-                      "correction": sum(r.correction_s for r in reports),
-                      "collision": sum(r.collision_s for r in reports), "publish": publish_s}
-        quality = {solver.model.name: report_scalars(report)
-                   for solver, report in zip(self.loop.character.solvers, reports)}
         try:
-            self.rerun.log_frame(result.time_s, timings_ms={k: 1e3 * s for k, s in timings_ms.items()},
-                                 quality=quality, inputs=self._frame_input, **payload)
+            self.rerun.log_result(result, self.loop.character, payload, publish_s, self._frame_input)
         except Exception as err:  # the viewer went away, the disk is full...: markers go on
             self.get_logger().error(f"Rerun logging failed, switched off: {err}")
             self.rerun = None
+
+    def _on_loop_event(self, level: str, kind: str, message: str) -> None:
+        """The character loop's events (dressed, teleported, holding...) on the Rerun timeline."""
+        if self.rerun is not None:
+            self.rerun.log_event(self._frame_time, level, kind, message)
 
     def _create_rerun_logger(self) -> RerunLogger | None:
         v = self.values
@@ -448,7 +449,7 @@ class GarmentSimNode(Node):
             return None
         try:
             return RerunLogger(sink=v["rerun_sink"], path=v["rerun_path"], url=v["rerun_url"] or None,
-                               recording_name=self.get_fully_qualified_name())
+                               recording_name=self.get_fully_qualified_name(), every_n=v["rerun_every_n"])
         except Exception as err:
             self.get_logger().error(f"rerun_sink {v['rerun_sink']!r} failed, Rerun logging is off: {err}")
             return None

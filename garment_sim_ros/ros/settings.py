@@ -94,6 +94,9 @@ NODE_PARAMETERS: tuple[NodeParam, ...] = (
               "the .rrd file written when rerun_sink is save", read_only=True),
     NodeParam("rerun_url", "", "", None, None,
               "viewer address when rerun_sink is connect; empty: rerun+http://127.0.0.1:9876/proxy", read_only=True),
+    NodeParam("rerun_every_n", 1, "frames", 1, 1000,
+              "log the garments, volumes and skeleton to Rerun every n-th frame only (scalars and events every "
+              "frame): the recording shrinks about n times"),
     # configuration file
     NodeParam("watch_params_file", False, "", None, None,
               "re-apply params_file whenever it changes (the node's section, validated; a bad file is "

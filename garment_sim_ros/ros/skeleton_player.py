@@ -8,7 +8,12 @@ Playback time starts at 0 on the first tick and advances ``speed`` times as fast
 (``speed`` and ``rate_hz`` can change at run time; the playback time stays continuous). A clip that
 does not loop holds its last frame once it ends, still stamped with the current time.
 
+With ``record`` set, every message published is also written to a new rosbag2 at that path
+(``record_storage``: mcap or sqlite3; ``ros.bag_io``), recorded at its stamp: input for
+``garment-sim replay`` and its tests, no ``ros2 bag`` needed.
+
     skeleton_player --ros-args -p bvh:=clip.bvh -p speed:=2.0 -p frame_prefix:=alice/
+    skeleton_player --ros-args -p bvh:=clip.bvh -p record:=out/walk_bag
 """
 
 from __future__ import annotations
@@ -23,9 +28,11 @@ from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParam
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
+from rclpy.serialization import serialize_message
 from tf2_msgs.msg import TFMessage
 
 from ..body.sources import GAITS, MotionSource, bvh_source, procedural_source
+from .bag_io import STORAGES, TF_TYPE, BagError, BagWriter
 
 NODE_NAME = "skeleton_player"
 _FRAME_CHARS = re.compile(r"^[A-Za-z0-9_/.-]*$")  # tf frame names: no spaces, no quoting
@@ -41,6 +48,9 @@ PARAMETERS: dict[str, tuple] = {
     "rate_hz": (120.0, "publishing rate, Hz", False, (1.0, 1000.0)),
     "frame_prefix": ("", "prepended to every joint frame name (e.g. 'alice/'), not to fixed_frame", True, None),
     "fixed_frame": ("world", "frame the root joint is published under", True, None),
+    "record": ("", "also write every /tf message to a new rosbag2 folder at this path; empty: no recording",
+               True, None),
+    "record_storage": ("mcap", f"storage of the recorded bag, one of {', '.join(STORAGES)}", True, None),
 }
 
 
@@ -57,6 +67,8 @@ def refusal(name: str, value) -> str | None:
         return f"{value!r} has characters a tf frame name cannot have; allowed: letters, digits, _ / . -"
     if name == "fixed_frame" and not value:
         return "must not be empty"
+    if name == "record_storage" and value not in STORAGES:
+        return f"unknown storage {value!r}; allowed: {', '.join(STORAGES)}"
     return None
 
 
@@ -91,6 +103,14 @@ class SkeletonPlayer(Node):
         self._anchor_motion_s = 0.0  # playback time at that stamp
         self._ended_logged = False
         self._message = self._transforms_template(values["frame_prefix"], values["fixed_frame"])
+        self.recording: BagWriter | None = None
+        if values["record"]:
+            try:
+                self.recording = BagWriter(values["record"], values["record_storage"])
+                self.recording.add_topic("/tf", TF_TYPE)
+            except (BagError, OSError) as error:
+                self.destroy_node()
+                raise ValueError(f"{NODE_NAME}: cannot record to {values['record']!r}: {error}") from None
         self.publisher = self.create_publisher(TFMessage, "/tf", QoSProfile(depth=100))
         self.timer = self.create_timer(1.0 / values["rate_hz"], self._tick)
         self.add_on_set_parameters_callback(self._on_set_parameters)
@@ -137,6 +157,8 @@ class SkeletonPlayer(Node):
             translation.x, translation.y, translation.z = x, y, z
             rotation.x, rotation.y, rotation.z, rotation.w = qx, qy, qz, qw
         self.publisher.publish(self._message)
+        if self.recording is not None:
+            self.recording.write("/tf", stamp_ns, serialize_message(self._message))
 
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         for parameter in parameters:
@@ -155,6 +177,12 @@ class SkeletonPlayer(Node):
                 self.destroy_timer(self.timer)
                 self.timer = self.create_timer(1.0 / parameter.value, self._tick)
         return SetParametersResult(successful=True)
+
+    def destroy_node(self) -> None:
+        if getattr(self, "recording", None) is not None:
+            self.recording.close()  # a complete bag: rosbags writes metadata.yaml on close
+            self.recording = None
+        super().destroy_node()
 
 
 def main(args=None) -> int:
