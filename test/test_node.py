@@ -152,7 +152,9 @@ def test_node_holds_when_the_skeleton_stops_and_resumes_when_it_restarts(graph):
     graph.spin_for(0.4)
     assert node.loop.status == Status.HOLDING and "stale" in node.loop.detail
     assert node.loop.counts["stale"] > 0
-    assert node.stats.total_frames == held_frames and len(probe.markers) == held_markers  # nothing new
+    assert node.stats.total_frames == held_frames  # nothing simulated...
+    # ...and the held garment goes on being published at rate_hz, the same message (issue 18: late joiners)
+    assert len(probe.markers) > held_markers + 5 and probe.markers[-1] == probe.markers[held_markers]
     assert all(np.array_equal(a, b) for a, b in zip(held_positions, node.loop.character.world_positions()))
     warned = [s for s in probe.statuses_of(node) if s.level == DiagnosticStatus.WARN and "stale" in s.message]
     assert warned

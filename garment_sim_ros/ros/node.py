@@ -68,7 +68,13 @@ LAG_WARNING_FRACTION = 0.1  # diagnostics turn WARN when the garments fall behin
 _TF_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 _TF_STATIC_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
+# ~/markers: transient local, keep last 1: a late RViz gets the garment at once (volatile subscribers,
+# RViz's default, still match); the node publishes at rate_hz while holding too, the held garment.
+_MARKERS_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 _REDRESS_KEYS = ("garments", "resolution")
+# The watch's own switches are taken from the watched file only when an edit changes them: a watch
+# turned on through the parameter service stays on while the file goes on saying false.
+_WATCH_KEYS = ("watch_params_file", "params_file")
 _CLEAR_KEYS = ("garments", "resolution", "marker_namespace", "publish_volumes")
 
 
@@ -149,6 +155,9 @@ class GarmentSimNode(Node):
         self._clear_markers = False
         self._last_compute_s = 0.0
         self._watch: FileWatch | None = None
+        self._watch_switches: dict[str, Any] = {}  # _WATCH_KEYS as the watched file said at the last read
+        self._held: tuple[dict, tuple[int, int]] | None = None  # the last frame's payload and stamp
+        self._held_message = b""  # ...serialized, published again while nothing new is simulated
 
         # raw: the bytes are decoded by ``TFDecoder`` (numpy), never into Python message objects
         self._tf_decoder = TFDecoder(v["frame_prefix"])
@@ -158,7 +167,7 @@ class GarmentSimNode(Node):
         self._warned_tf_full = False
         self._tf_subscription = self.create_subscription(TFMessage, "/tf", self._on_tf, _TF_QOS, raw=True)
         self.create_subscription(TFMessage, "/tf_static", self._on_tf_static, _TF_STATIC_QOS)
-        self.marker_publisher = self.create_publisher(MarkerArray, "~/markers", 2)
+        self.marker_publisher = self.create_publisher(MarkerArray, "~/markers", _MARKERS_QOS)
         self.diagnostics_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.frame_timer = self.create_timer(1.0 / v["rate_hz"], self._on_frame_timer)  # the node's clock
         # Steady: diagnostics and the file watch go on when sim time stalls or has not started.
@@ -166,6 +175,8 @@ class GarmentSimNode(Node):
         self.diagnostics_timer = self.create_timer(v["diagnostics_period"], self.publish_diagnostics, clock=steady)
         self.watch_timer = self.create_timer(v["watch_period"], self.poll_params_file, clock=steady)
         self.rerun = self._create_rerun_logger()
+        if params_file_hint and self._read_section(params_file_hint) == {}:
+            self._warn_no_section(params_file_hint)  # rclpy ignores the file without a word
 
     # ------------------------------------------------------------------------------ parameters
     def _declare_parameters(self) -> dict[str, Any]:
@@ -194,7 +205,9 @@ class GarmentSimNode(Node):
         for parameter in parameters:
             name = parameter.name
             if name not in PARAMETER_ROWS:
-                checked.append(parameter)  # use_sim_time, or undeclared: rclpy's own rules apply
+                if not self.has_parameter(name):  # rclpy Jazzy's refusal names none (a consumed generator)
+                    raise ParameterError(f"{name}: undeclared parameter; known: {', '.join(PARAMETER_ROWS)}")
+                checked.append(parameter)  # use_sim_time: rclpy's own rules apply
                 continue
             if parameter.type_ == Parameter.Type.NOT_SET:
                 raise ParameterError(f"{name}: cannot be unset; allowed: {PARAMETER_ROWS[name].allowed()}")
@@ -214,10 +227,13 @@ class GarmentSimNode(Node):
         try:
             checked, changes = self._validate(parameter_list)
         except ParameterError as err:
-            return SetParametersResult(successful=False, reason=str(err))
-        result = super().set_parameters_atomically(checked)
+            result = SetParametersResult(successful=False, reason=str(err))
+        else:
+            result = super().set_parameters_atomically(checked)
         if result.successful:
             self._accept(changes)
+        else:  # every refused set said once, whoever asked (services, set_parameters, the watched file)
+            self.get_logger().warning(f"parameter set refused: {result.reason}")
         return result
 
     def set_parameters(self, parameter_list: list[Parameter]) -> list[SetParametersResult]:
@@ -263,10 +279,20 @@ class GarmentSimNode(Node):
             return
         if self._watch is None or self._watch.path != Path(path):
             self._watch = FileWatch(path)
+            self._watch_switches = {}
             if path == self._params_file_hint:
                 self._watch.changed()  # loaded at start by --params-file (under any -p): apply later edits only
+                self._watch_switches = {k: v for k, v in (self._read_section(path) or {}).items()
+                                       if k in _WATCH_KEYS}
         if self._watch.changed():
             self.apply_params_file(path)
+
+    def _read_section(self, path: str) -> dict[str, Any] | None:
+        """This node's parameters in ``path``; None when it cannot be read (said when the watch reads it)."""
+        try:
+            return read_node_parameters(path, self.get_fully_qualified_name())
+        except ParamsFileError:
+            return None
 
     def apply_params_file(self, path: str) -> bool:
         """Apply the node's section of ``path``: all of it, or (any bad key or value) none of it."""
@@ -275,11 +301,13 @@ class GarmentSimNode(Node):
         except ParamsFileError as err:
             return self._refuse_params_file([str(err)])
         if not given:
-            self._log("warning", "params_file_section", f"{path}: no ros__parameters section matches this node "
-                      f"({self.get_fully_qualified_name()}); name it so, or /**/{self.get_name()} for every namespace")
+            self._warn_no_section(path)
+        said_before, self._watch_switches = self._watch_switches, {k: given[k] for k in _WATCH_KEYS if k in given}
         problems, changes = [], []
         for name, raw in given.items():
             raw = _plain(raw)
+            if name in _WATCH_KEYS and said_before.get(name, raw) == raw:
+                continue  # the watch's switches: only an edit of them applies
             if name not in PARAMETER_ROWS:
                 if self.has_parameter(name):
                     if self.get_parameter(name).value != raw:
@@ -309,6 +337,11 @@ class GarmentSimNode(Node):
             ", ".join(f"{p.name}={_plain(p.value)!r}" for p in changes) if changes else "(no change)")
         self.get_logger().info(self.params_file_message)
         return True
+
+    def _warn_no_section(self, path: str) -> None:
+        self._log("warning", "params_file_section", f"{path}: no ros__parameters section matches this node's "
+                  f"fully qualified name {self.get_fully_qualified_name()!r}: nothing in it applies. Key it "
+                  f"'{self.get_fully_qualified_name().lstrip('/')}', or '/**/{self.get_name()}' for any namespace")
 
     def _refuse_params_file(self, problems: list[str]) -> bool:
         self.params_file_errors += 1
@@ -393,11 +426,13 @@ class GarmentSimNode(Node):
         try:
             self._absorb_tf()  # the newest /tf first, however the executor scheduled the callbacks
             self._apply_pending()
-            frame_time = self._last_compute_s + self.get_clock().now().nanoseconds * 1e-9  # T_next
-            result = self.loop.frame(frame_time)
+            now_s = self.get_clock().now().nanoseconds * 1e-9
+            result = self.loop.frame(self._last_compute_s + now_s, now_s)  # T_next = D_last + now
             if result is not None:
                 self._publish_frame(result)
                 dressed = result.dressed
+            else:
+                self._publish_held()
         except Exception:  # a frame must never take the node down: report it and go on
             self.frame_errors += 1
             self._log("error", "frame_error", f"frame failed (counted in diagnostics):\n{traceback.format_exc()}")
@@ -409,14 +444,8 @@ class GarmentSimNode(Node):
     def _publish_frame(self, result: FrameResult) -> None:
         tic = time.perf_counter()
         payload = frame_payload(self.loop.character, result.pose)
-        v = self.values
-        stamp = seconds_to_stamp(result.pose_time_s)  # the pose's time, never newer (issue 17)
-        markers = frame_markers(payload, v["marker_namespace"], v["fixed_frame"], stamp, v["publish_volumes"])
-        if self._clear_markers or result.dressed:  # garments or namespaces changed: drop the old markers
-            markers.insert(0, MarkerData(ns="", id=0, type=0, action=DELETEALL, frame_id=v["fixed_frame"],
-                                         stamp=stamp))
-            self._clear_markers = False
-        self.marker_publisher.publish(serialize_marker_array(markers))
+        self._held = (payload, seconds_to_stamp(result.time_s))  # the time of the pose simulated on
+        self._publish_markers(clear=result.dressed)
         publish_s = time.perf_counter() - tic
         self.stats.record_frame(result.reports, result.frame_s, result.penetration_m)
         recovered = [(solver.model.name, report.recovery)
@@ -427,6 +456,31 @@ class GarmentSimNode(Node):
         self.stats.record_publish(publish_s)
         if self.rerun is not None:
             self._log_rerun(result, payload, publish_s)
+
+    def _publish_markers(self, clear: bool = False) -> None:
+        """The held frame's markers; after a change of garments or namespaces (or volumes switched off), a
+        DELETEALL first that drops the old ones (published once, the held message is without it)."""
+        payload, stamp = self._held
+        v = self.values
+        markers = frame_markers(payload, v["marker_namespace"], v["fixed_frame"], stamp, v["publish_volumes"])
+        self._held_message = serialize_marker_array(markers)
+        if clear or self._clear_markers:
+            markers.insert(0, MarkerData(ns="", id=0, type=0, action=DELETEALL, frame_id=v["fixed_frame"],
+                                         stamp=stamp))
+            self._clear_markers = False
+            self.marker_publisher.publish(serialize_marker_array(markers))
+        else:
+            self.marker_publisher.publish(self._held_message)
+
+    def _publish_held(self) -> None:
+        """Nothing new simulated (holding, folded, no newer pose): the last garment again, at rate_hz, so
+        a late subscriber sees it; not while (re-)dressing, whose first frame replaces it."""
+        if self._held is None or self.loop.character is None:
+            return
+        if self._clear_markers:
+            self._publish_markers()
+        else:
+            self.marker_publisher.publish(self._held_message)
 
     def _log_rerun(self, result: FrameResult, payload: dict, publish_s: float) -> None:
         reports = result.reports
