@@ -38,7 +38,6 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -57,10 +56,12 @@ from .frame_stats import FrameStats
 from .marker_cdr import DELETEALL, MarkerData, serialize_marker_array
 from .params_file import FileWatch, ParamsFileError, read_node_parameters
 from .settings import ALL_PARAMETERS, PARAMETER_ROWS, SOLVER_PARAMETER_NAMES, is_read_only
+from .spinning import spin_until_shutdown
 from .tf_input import IngestResult, TFDecoder, TransformBatch, ingest, ingest_batch, seconds_to_stamp
 
 NODE_NAME = "garment_sim_node"
 LAG_WARNING_FRACTION = 0.1  # diagnostics turn WARN when the garments fall behind by this share of the time
+LAG_WARNING_MIN_S = 0.001  # ...and by at least this much, s
 # /tf: reliable and volatile as tf2's listeners, so every publisher that works with tf2 matches. Keep
 # last 1000 messages: the node drains the whole queue every frame (``_absorb_tf``), so the depth is
 # only the slack for a long frame (dressing takes up to a second): 4 characters at 240 Hz fill 1000 in
@@ -434,6 +435,8 @@ class GarmentSimNode(Node):
             else:
                 self._publish_held()
         except Exception:  # a frame must never take the node down: report it and go on
+            if not self.context.ok():
+                return  # shut down (a signal) mid-frame: the publish failed, nothing to report
             self.frame_errors += 1
             self._log("error", "frame_error", f"frame failed (counted in diagnostics):\n{traceback.format_exc()}")
         compute_s = time.perf_counter() - tic
@@ -514,7 +517,8 @@ class GarmentSimNode(Node):
         if now.nanoseconds == 0 and self.get_clock().ros_time_is_active:
             self.loop.clock_not_started()  # use_sim_time and no /clock yet: the frame timer does not fire
         loop = self.loop
-        lagging = figures["lag_fraction"] > LAG_WARNING_FRACTION
+        # a share of nothing is no lag (a window right after a resume can hold almost no body time)
+        lagging = figures["lag_fraction"] > LAG_WARNING_FRACTION and figures["lag_s"] >= LAG_WARNING_MIN_S
         level, message = DiagnosticStatus.OK, loop.status
         failed = self.frame_errors > self._frame_errors_reported  # a frame failed since the last status
         self._frame_errors_reported = self.frame_errors
@@ -569,14 +573,7 @@ def main(args: list[str] | None = None) -> int:
     """Console entry point ``garment_sim_node``, e.g.
     ``garment_sim_node --ros-args --params-file config/garment_sim.yaml -r __ns:=/alice -p frame_prefix:=alice/``."""
     rclpy.init(args=args)
-    node = GarmentSimNode(params_file_hint=params_file_from_args(sys.argv if args is None else args))
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+    spin_until_shutdown(GarmentSimNode(params_file_hint=params_file_from_args(sys.argv if args is None else args)))
     return 0
 
 
