@@ -21,8 +21,9 @@ from node_harness import (CHARACTER, Probe, SkeletonPublisher, feed, garment_nod
 from rcl_interfaces.msg import ParameterType
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
+from rclpy.serialization import deserialize_message
 from tf2_msgs.msg import TFMessage
-from visualization_msgs.msg import Marker
+from visualization_msgs.msg import Marker, MarkerArray
 
 from garment_sim_ros.body.pose_buffer import PoseBuffer
 from garment_sim_ros.params import DEFAULT_PARAMS, PARAMETERS
@@ -418,3 +419,67 @@ def test_body_file_overrides_the_fitted_volumes_and_a_bad_one_is_reported(tmp_pa
         else:
             assert loop.status == Status.UNMAPPABLE and loop.character is None
             assert "bad_body.yaml" in loop.detail and "left_upper_leg" in loop.detail
+
+
+# ------------------------------------------------------------------------------------ saying what is wrong
+def test_misconfiguration_is_said_naming_what_to_use(graph, tmp_path, capfd):
+    """Issue 18: a params file keyed for another name, two skeletons that frame_prefix does not tell apart,
+    an undeclared parameter and refused sets were silent or said nothing useful."""
+    path = tmp_path / "wrong_key.yaml"
+    path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: 0.3\n")  # the node runs as /alice/...
+    arguments = ["--ros-args", "--params-file", str(path)]
+    node = graph.add(GarmentSimNode(context=graph.context, namespace="alice", cli_args=arguments,
+                                    params_file_hint=params_file_from_args(arguments)))
+    graph.add(SkeletonPublisher(graph.context, "a/", name="a_player").node)
+    graph.add(SkeletonPublisher(graph.context, "b/", offset=(0.0, 4.0, 0.0), name="b_player").node)
+    probe = Probe(graph.context, "/alice/garment_sim_node/markers")
+    graph.add(probe.node)
+    client_node = graph.add(rclpy.create_node("parameter_client", context=graph.context))
+    client = AsyncParameterClient(client_node, "/alice/garment_sim_node")
+    assert graph.spin_until(lambda: client.services_are_ready(), 10.0)
+    assert graph.spin_until(running(node, 3), 20.0), node.loop.detail
+
+    def set_remotely(*parameters):
+        future = client.set_parameters(list(parameters))
+        assert graph.spin_until(future.done, 5.0)
+        return future.result().results
+
+    (undeclared,) = set_remotely(Parameter("frictoin", value=0.3))
+    assert not undeclared.successful and "frictoin" in undeclared.reason and "friction" in undeclared.reason
+    (bad,) = set_remotely(Parameter("substep", value=5.0))
+    assert not bad.successful
+
+    # publish_volumes off: the volume markers are deleted, not left in RViz
+    assert any(m.type == Marker.SPHERE for m in probe.last_markers().markers)
+    seen = len(probe.markers)
+    (volumes_off,) = set_remotely(Parameter("publish_volumes", value=False))
+    assert volumes_off.successful
+    assert graph.spin_until(lambda: len(probe.markers) > seen + 3, 3.0)
+    after = [deserialize_message(data, MarkerArray).markers for data in probe.markers[seen:]]
+    first = next(k for k, markers in enumerate(after) if not any(m.type == Marker.SPHERE for m in markers))
+    assert after[first][0].action == Marker.DELETEALL  # the spheres' first message without them deletes them
+    assert not any(m.type == Marker.SPHERE for markers in after[first:] for m in markers)
+
+    log = capfd.readouterr().err
+    assert "/alice/garment_sim_node" in log and "'alice/garment_sim_node'" in log and str(path) in log
+    assert "'a/pelvis'" in log and "'b/pelvis'" in log and f"dressing {node.loop.skeleton.names[0]!r}" in log
+    refusals = [line for line in log.splitlines() if "parameter set refused" in line]
+    assert len(refusals) == 2 and "frictoin" in refusals[0] and "substep" in refusals[1]  # each said once
+
+
+def test_watching_turned_on_at_run_time_survives_a_file_that_says_false(graph, tmp_path):
+    """Issue 18: turned on through the parameter service, the watch turned itself off at the first edit of a
+    file that still said ``watch_params_file: false``. The watch's switches apply only when an edit changes them."""
+    path = tmp_path / "tuning.yaml"
+    path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: 0.3\n    watch_params_file: false\n")
+    node = garment_node(graph, watch_period=0.05)
+    assert node.set_parameters([Parameter("params_file", value=str(path))])[0].successful
+    assert node.set_parameters([Parameter("watch_params_file", value=True)])[0].successful
+    assert graph.spin_until(lambda: node.get_parameter("friction").value == 0.3, 3.0)
+    path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: 0.4\n    watch_params_file: false\n")
+    assert graph.spin_until(lambda: node.get_parameter("friction").value == 0.4, 3.0)
+    assert node.get_parameter("watch_params_file").value is True
+    path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: 0.5\n    watch_params_file: true\n")
+    assert graph.spin_until(lambda: node.get_parameter("friction").value == 0.5, 3.0)
+    path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: 0.5\n    watch_params_file: false\n")
+    assert graph.spin_until(lambda: node.get_parameter("watch_params_file").value is False, 3.0)  # an edit of it

@@ -7,9 +7,11 @@ Wires topics, parameters and timers to the ROS-free modules:
   the start of every frame, decoded by ``tf_input.TFDecoder`` (numpy), so 100+ joints at 120 Hz and
   more cost a small share of a core and the frame always samples the newest data (issue 17).
 - a timer at ``rate_hz``: ``T_next = D_last + now`` (the node's clock, so ``use_sim_time`` works;
-  ``D_last`` the last tick's compute time) -> ``CharacterLoop.frame(T_next)`` -> the garments (and
-  body volumes) on ``~/markers`` as a serialized ``visualization_msgs/MarkerArray`` stamped
-  ``T_next`` in ``fixed_frame``, and to Rerun when ``rerun_sink`` is not off.
+  ``D_last`` the last tick's compute time) -> ``CharacterLoop.frame(T_next, now)`` -> the garments (and
+  body volumes) on ``~/markers`` as a serialized ``visualization_msgs/MarkerArray`` in ``fixed_frame``
+  stamped with the time of the pose they were simulated on (``FrameResult.time_s``), and to Rerun when
+  ``rerun_sink`` is not off. A tick that simulates nothing (holding, folded, no newer pose) publishes
+  the last frame's markers again: with the topic's transient-local QoS, a late RViz sees the garment.
 - ``/diagnostics`` (``diagnostic_msgs/DiagnosticArray``) every ``diagnostics_period``: fps, substeps,
   lag, stage times, penetration, the garments' quality (``bones_through``, ``bones_through_frames``,
   ``legs_off``, structural and shear stretch p99 and max: ``ros.frame_stats``), skeleton age,
