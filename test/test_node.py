@@ -277,10 +277,10 @@ def test_params_file_watch_applies_a_change_and_refuses_a_broken_file(graph, tmp
     assert graph.spin_until(lambda: node.get_parameter("friction").value == 0.45, 3.0)
     assert node.get_parameter("rate_hz").value == 30.0 and node.frame_timer.timer_period_ns == int(1e9 / 30)
 
-    errors = node.params_file_errors
+    errors = node.params_watch.errors
     path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: [0.9\n")  # YAML syntax error
-    assert graph.spin_until(lambda: node.params_file_errors > errors, 3.0)
-    assert str(path) in node.params_file_message and "not valid YAML" in node.params_file_message
+    assert graph.spin_until(lambda: node.params_watch.errors > errors, 3.0)
+    assert str(path) in node.params_watch.message and "not valid YAML" in node.params_watch.message
     assert node.get_parameter("friction").value == 0.45
 
     for text, expected in (
@@ -288,10 +288,10 @@ def test_params_file_watch_applies_a_change_and_refuses_a_broken_file(graph, tmp
         ("    friction: 0.5\n    substep: 2.0\n", "substep: got 2.0; allowed: [1e-05, 0.1] s"),
         ("    friction: 0.5\n    fixed_frame: map\n", "fixed_frame: read-only"),
     ):
-        errors = node.params_file_errors
+        errors = node.params_watch.errors
         path.write_text("garment_sim_node:\n  ros__parameters:\n" + text)
-        assert graph.spin_until(lambda: node.params_file_errors > errors, 3.0)
-        assert expected in node.params_file_message and str(path) in node.params_file_message
+        assert graph.spin_until(lambda: node.params_watch.errors > errors, 3.0)
+        assert expected in node.params_watch.message and str(path) in node.params_watch.message
         assert node.get_parameter("friction").value == 0.45  # the whole file was refused
 
 
@@ -302,7 +302,7 @@ def test_watching_the_start_up_params_file_applies_only_later_edits(graph, tmp_p
     arguments = ["--ros-args", "--params-file", str(path), "-p", "friction:=0.5"]
     node = graph.add(GarmentSimNode(context=graph.context, cli_args=arguments,
                                     params_file_hint=params_file_from_args(arguments)))
-    assert node.params_file_path() == str(path)
+    assert node.params_watch.path() == str(path)
     graph.spin_for(0.3)
     assert node.get_parameter("friction").value == 0.5  # -p wins over the file it was started with
     path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: 0.35\n    watch_params_file: true\n")

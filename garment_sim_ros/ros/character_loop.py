@@ -128,7 +128,8 @@ class CharacterLoop:
                  catch_up_wall_s: float = CATCH_UP_WALL_S, body_file: str = ""):
         self.buffer = buffer
         self.params = params
-        buffer.jump_distance_m = params.teleport_distance  # one rule for a jump: the buffer confirms, the loop re-dresses
+        # one rule for a jump: the buffer confirms it, the loop re-dresses
+        buffer.jump_distance_m = params.teleport_distance
         self.garments = list(garments)
         self.resolution = float(resolution)
         self.frame_prefix = frame_prefix
@@ -342,7 +343,8 @@ class CharacterLoop:
             self._ambiguous = skeletons  # said once per set
             self.counts["several_skeletons"] += 1
             self._log("warning", "several_skeletons", f"{len(skeletons)} skeletons under {fixed!r} match "
-                      f"frame_prefix {self.frame_prefix!r}: " + ", ".join(f"{f!r} ({sizes[f]} frames)" for f in skeletons)
+                      f"frame_prefix {self.frame_prefix!r}: "
+                      + ", ".join(f"{f!r} ({sizes[f]} frames)" for f in skeletons)
                       + f"; dressing {picked!r}. Set frame_prefix (or root_frame) to choose")
         return picked
 

@@ -27,18 +27,15 @@ Wires topics, parameters and timers to the ROS-free modules:
 
 from __future__ import annotations
 
-import array
 import sys
 import time
 import traceback
 from collections import Counter
-from pathlib import Path
 from typing import Any, Sequence
 
-import numpy as np
 import rclpy
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from diagnostic_msgs.msg import DiagnosticArray
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -50,20 +47,20 @@ from visualization_msgs.msg import MarkerArray
 
 from ..body.pose_buffer import PoseBuffer
 from ..markers import frame_markers
-from ..params import Param, ParameterError, SolverParams
+from ..params import ParameterError, SolverParams
 from ..quality import report_scalars
 from ..rerun_log import RerunLogger, frame_payload
-from .character_loop import CharacterLoop, FrameResult, Status, Throttle
+from .character_loop import CharacterLoop, FrameResult, Throttle
+from .diagnostics import diagnostic_status, level_and_message, status_values
 from .frame_stats import FrameStats
 from .marker_cdr import DELETEALL, MarkerData, serialize_marker_array
-from .params_file import FileWatch, ParamsFileError, read_node_parameters
+from .params_watch import ParamsFileWatch
+from .ros_parameters import descriptor, parameter_type, params_file_from_args, plain, ros_value
 from .settings import ALL_PARAMETERS, PARAMETER_ROWS, SOLVER_PARAMETER_NAMES, is_read_only
 from .spinning import spin_until_shutdown
 from .tf_input import IngestResult, TFDecoder, TransformBatch, ingest, ingest_batch, seconds_to_stamp
 
 NODE_NAME = "garment_sim_node"
-LAG_WARNING_FRACTION = 0.1  # diagnostics turn WARN when the garments fall behind by this share of the time
-LAG_WARNING_MIN_S = 0.001  # ...and by at least this much, s
 # /tf: reliable and volatile as tf2's listeners, so every publisher that works with tf2 matches. Keep
 # last 1000 messages: the node drains the whole queue every frame (``_absorb_tf``), so the depth is
 # only the slack for a long frame (dressing takes up to a second): 4 characters at 240 Hz fill 1000 in
@@ -75,60 +72,7 @@ _TF_STATIC_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
 # RViz's default, still match); the node publishes at rate_hz while holding too, the held garment.
 _MARKERS_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 _REDRESS_KEYS = ("garments", "resolution")
-# The watch's own switches are taken from the watched file only when an edit changes them: a watch
-# turned on through the parameter service stays on while the file goes on saying false.
-_WATCH_KEYS = ("watch_params_file", "params_file")
 _CLEAR_KEYS = ("garments", "resolution", "marker_namespace", "publish_volumes")
-
-
-def _parameter_type(row: Param) -> Parameter.Type:
-    default = row.default
-    if isinstance(default, bool):
-        return Parameter.Type.BOOL
-    if isinstance(default, list):
-        return Parameter.Type.STRING_ARRAY
-    if isinstance(default, tuple):
-        return Parameter.Type.DOUBLE_ARRAY
-    if isinstance(default, int):
-        return Parameter.Type.INTEGER
-    if isinstance(default, float):
-        return Parameter.Type.DOUBLE
-    return Parameter.Type.STRING
-
-
-def _ros_value(value: Any) -> Any:
-    """A validated value as rclpy stores it (tuples as lists)."""
-    return list(value) if isinstance(value, tuple) else value
-
-
-def _plain(value: Any) -> Any:
-    """A parameter value as Python scalars and lists (rclpy gives arrays as ``array.array``)."""
-    if isinstance(value, (array.array, np.ndarray)):
-        return value.tolist()
-    return value
-
-
-def descriptor(row: Param) -> ParameterDescriptor:
-    """The ``ParameterDescriptor`` of a table row: description with unit and allowed values, range, read-only."""
-    unit = f" [{row.unit}]" if row.unit and row.unit != "1" else ""
-    result = ParameterDescriptor(
-        name=row.name, type=_parameter_type(row).value, description=f"{row.description}{unit}",
-        additional_constraints=f"allowed: {row.allowed()}", read_only=bool(getattr(row, "read_only", False)))
-    kind = _parameter_type(row)
-    if row.low is not None and row.high is not None:
-        if kind == Parameter.Type.DOUBLE:
-            result.floating_point_range = [FloatingPointRange(from_value=float(row.low), to_value=float(row.high),
-                                                              step=0.0)]
-        elif kind == Parameter.Type.INTEGER:
-            result.integer_range = [IntegerRange(from_value=int(row.low), to_value=int(row.high), step=1)]
-    return result
-
-
-def params_file_from_args(args: Sequence[str]) -> str:
-    """The last ``--params-file PATH`` among ROS arguments, or ''."""
-    args = list(args)
-    paths = [args[i + 1] for i, arg in enumerate(args[:-1]) if arg == "--params-file"]
-    return paths[-1] if paths else ""
 
 
 class GarmentSimNode(Node):
@@ -137,7 +81,6 @@ class GarmentSimNode(Node):
     def __init__(self, node_name: str = NODE_NAME, *, params_file_hint: str = "", **kwargs):
         super().__init__(node_name, **kwargs)
         self._throttle = Throttle()
-        self._params_file_hint = params_file_hint
         self.values: dict[str, Any] = self._declare_parameters()
         self.solver_params = SolverParams(**{name: self.values[name] for name in SOLVER_PARAMETER_NAMES})
         v = self.values
@@ -152,13 +95,9 @@ class GarmentSimNode(Node):
         self.frame_errors = 0
         self._frame_errors_reported = 0
         self.last_diagnostics: dict[str, str] = {}
-        self.params_file_errors = 0
-        self.params_file_message = ""
         self._pending: dict[str, Any] = {}
         self._clear_markers = False
         self._last_compute_s = 0.0
-        self._watch: FileWatch | None = None
-        self._watch_switches: dict[str, Any] = {}  # _WATCH_KEYS as the watched file said at the last read
         self._held: tuple[dict, tuple[int, int]] | None = None  # the last frame's payload and stamp
         self._held_message = b""  # ...serialized, published again while nothing new is simulated
 
@@ -176,10 +115,9 @@ class GarmentSimNode(Node):
         # Steady: diagnostics and the file watch go on when sim time stalls or has not started.
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.diagnostics_timer = self.create_timer(v["diagnostics_period"], self.publish_diagnostics, clock=steady)
-        self.watch_timer = self.create_timer(v["watch_period"], self.poll_params_file, clock=steady)
+        self.params_watch = ParamsFileWatch(self, params_file_hint)
+        self.watch_timer = self.create_timer(v["watch_period"], self.params_watch.poll, clock=steady)
         self.rerun = self._create_rerun_logger()
-        if params_file_hint and self._read_section(params_file_hint) == {}:
-            self._warn_no_section(params_file_hint)  # rclpy ignores the file without a word
 
     # ------------------------------------------------------------------------------ parameters
     def _declare_parameters(self) -> dict[str, Any]:
@@ -189,12 +127,12 @@ class GarmentSimNode(Node):
         for row in ALL_PARAMETERS:
             value = row.default
             if row.name in overrides:
-                given = _plain(overrides[row.name].value)
+                given = plain(overrides[row.name].value)
                 try:
                     value = row.check(given)
                 except ParameterError as err:
                     self.get_logger().error(f"start-up parameter refused: {err}; using the default {row.default!r}")
-            self.declare_parameter(row.name, _ros_value(value), descriptor(row), ignore_override=True)
+            self.declare_parameter(row.name, ros_value(value), descriptor(row), ignore_override=True)
             values[row.name] = value
         unknown = sorted(set(overrides) - set(PARAMETER_ROWS) - {"use_sim_time"})
         if unknown:
@@ -214,11 +152,11 @@ class GarmentSimNode(Node):
                 continue
             if parameter.type_ == Parameter.Type.NOT_SET:
                 raise ParameterError(f"{name}: cannot be unset; allowed: {PARAMETER_ROWS[name].allowed()}")
-            value = PARAMETER_ROWS[name].check(_plain(parameter.value))
+            value = PARAMETER_ROWS[name].check(plain(parameter.value))
             if is_read_only(name):
                 raise ParameterError(f"{name}: read-only, set at start (--params-file or -p); running with "
                                      f"{self.values[name]!r}, got {value!r}")
-            checked.append(Parameter(name, _parameter_type(PARAMETER_ROWS[name]), _ros_value(value)))
+            checked.append(Parameter(name, parameter_type(PARAMETER_ROWS[name]), ros_value(value)))
             changes[name] = value
         solver_changes = {k: v for k, v in changes.items() if k in SOLVER_PARAMETER_NAMES}
         if solver_changes:
@@ -267,91 +205,6 @@ class GarmentSimNode(Node):
         self.buffer.max_age_s = self.values["max_skeleton_age"]
         self.buffer.max_extrapolation_s = self.values["max_extrapolation"]
 
-    # ------------------------------------------------------------------------------ params file
-    def params_file_path(self) -> str:
-        return self.values["params_file"] or self._params_file_hint
-
-    def poll_params_file(self) -> None:
-        """Timer: re-apply the params file when its modification time or size changed."""
-        path = self.params_file_path()
-        if not self.values["watch_params_file"] or not path:
-            if self.values["watch_params_file"]:
-                self._log("warning", "params_file", "watch_params_file is on but params_file is empty and no "
-                                                    "--params-file was given: nothing to watch")
-            self._watch = None
-            return
-        if self._watch is None or self._watch.path != Path(path):
-            self._watch = FileWatch(path)
-            self._watch_switches = {}
-            if path == self._params_file_hint:
-                self._watch.changed()  # loaded at start by --params-file (under any -p): apply later edits only
-                self._watch_switches = {k: v for k, v in (self._read_section(path) or {}).items()
-                                       if k in _WATCH_KEYS}
-        if self._watch.changed():
-            self.apply_params_file(path)
-
-    def _read_section(self, path: str) -> dict[str, Any] | None:
-        """This node's parameters in ``path``; None when it cannot be read (said when the watch reads it)."""
-        try:
-            return read_node_parameters(path, self.get_fully_qualified_name())
-        except ParamsFileError:
-            return None
-
-    def apply_params_file(self, path: str) -> bool:
-        """Apply the node's section of ``path``: all of it, or (any bad key or value) none of it."""
-        try:
-            given = read_node_parameters(path, self.get_fully_qualified_name())
-        except ParamsFileError as err:
-            return self._refuse_params_file([str(err)])
-        if not given:
-            self._warn_no_section(path)
-        said_before, self._watch_switches = self._watch_switches, {k: given[k] for k in _WATCH_KEYS if k in given}
-        problems, changes = [], []
-        for name, raw in given.items():
-            raw = _plain(raw)
-            if name in _WATCH_KEYS and said_before.get(name, raw) == raw:
-                continue  # the watch's switches: only an edit of them applies
-            if name not in PARAMETER_ROWS:
-                if self.has_parameter(name):
-                    if self.get_parameter(name).value != raw:
-                        changes.append(Parameter(name, value=raw))
-                else:
-                    problems.append(f"{path}: {name}: unknown parameter; known: {', '.join(PARAMETER_ROWS)}")
-                continue
-            try:
-                value = PARAMETER_ROWS[name].check(raw)
-            except ParameterError as err:
-                problems.append(f"{path}: {err}")
-                continue
-            if value == self.values[name]:
-                continue
-            if is_read_only(name):
-                problems.append(f"{path}: {name}: read-only, set at start; running with {self.values[name]!r}, "
-                                f"the file says {value!r} (restart the node to change it)")
-            else:
-                changes.append(Parameter(name, value=_ros_value(value)))
-        if problems:
-            return self._refuse_params_file(problems)
-        if changes:
-            result = self.set_parameters_atomically(changes)
-            if not result.successful:
-                return self._refuse_params_file([f"{path}: {result.reason}"])
-        self.params_file_message = f"{path}: applied " + (
-            ", ".join(f"{p.name}={_plain(p.value)!r}" for p in changes) if changes else "(no change)")
-        self.get_logger().info(self.params_file_message)
-        return True
-
-    def _warn_no_section(self, path: str) -> None:
-        self._log("warning", "params_file_section", f"{path}: no ros__parameters section matches this node's "
-                  f"fully qualified name {self.get_fully_qualified_name()!r}: nothing in it applies. Key it "
-                  f"'{self.get_fully_qualified_name().lstrip('/')}', or '/**/{self.get_name()}' for any namespace")
-
-    def _refuse_params_file(self, problems: list[str]) -> bool:
-        self.params_file_errors += 1
-        self.params_file_message = "; ".join(problems) + "; keeping the last good configuration"
-        self.get_logger().error(self.params_file_message)
-        return False
-
     # ------------------------------------------------------------------------------ input
     def _on_tf(self, message: bytes | TFMessage) -> None:
         """/tf, serialized (a ``TFMessage`` is serialized first: tests feed objects). Kept until the
@@ -396,7 +249,7 @@ class GarmentSimNode(Node):
                 batch = self._tf_decoder.decode(data)
             except ValueError as err:
                 self.input_counts["undecodable"] += 1
-                self._log("warning", "tf_undecodable", f"a /tf message could not be decoded (counted): {err}")
+                self.log_throttled("warning", "tf_undecodable", f"a /tf message could not be decoded (counted): {err}")
                 continue
             if len(batch.stamps) and now_s is not None:
                 lag_s = now_s - float(batch.stamps.max())  # receive time - stamp
@@ -419,7 +272,7 @@ class GarmentSimNode(Node):
         if count_empty and not (result.stored or result.other_character or result.refused):
             self.input_counts["empty_messages"] += 1  # nothing to do; counted so a silent publisher shows
         if result.refused:
-            self._log("warning", "tf_refused",
+            self.log_throttled("warning", "tf_refused",
                       f"refused /tf input (counted in diagnostics), e.g. {result.first_refusal}")
 
     # ------------------------------------------------------------------------------ the frame
@@ -440,7 +293,8 @@ class GarmentSimNode(Node):
             if not self.context.ok():
                 return  # shut down (a signal) mid-frame: the publish failed, nothing to report
             self.frame_errors += 1
-            self._log("error", "frame_error", f"frame failed (counted in diagnostics):\n{traceback.format_exc()}")
+            self.log_throttled("error", "frame_error",
+                               f"frame failed (counted in diagnostics):\n{traceback.format_exc()}")
         compute_s = time.perf_counter() - tic
         self.stats.record_tick(compute_s)
         # D_last: dressing is no frame's compute time, T_next of the next frame must not jump by it
@@ -456,8 +310,9 @@ class GarmentSimNode(Node):
         recovered = [(solver.model.name, report.recovery)
                      for solver, report in zip(self.loop.character.solvers, result.reports) if report.recovery]
         if recovered:
-            self._log("warning", "solver_recovery", "a garment step went bad (counted in diagnostics as solver_*): "
-                      + ", ".join(f"{name} {what}" for name, what in recovered))
+            self.log_throttled("warning", "solver_recovery",
+                               "a garment step went bad (counted in diagnostics as solver_*): "
+                               + ", ".join(f"{name} {what}" for name, what in recovered))
         self.stats.record_publish(publish_s)
         if self.rerun is not None:
             self._log_rerun(result, payload, publish_s)
@@ -518,44 +373,20 @@ class GarmentSimNode(Node):
         now = self.get_clock().now()
         if now.nanoseconds == 0 and self.get_clock().ros_time_is_active:
             self.loop.clock_not_started()  # use_sim_time and no /clock yet: the frame timer does not fire
-        loop = self.loop
-        # a share of nothing is no lag (a window right after a resume can hold almost no body time)
-        lagging = figures["lag_fraction"] > LAG_WARNING_FRACTION and figures["lag_s"] >= LAG_WARNING_MIN_S
-        level, message = DiagnosticStatus.OK, loop.status
         failed = self.frame_errors > self._frame_errors_reported  # a frame failed since the last status
         self._frame_errors_reported = self.frame_errors
-        if loop.status == Status.UNMAPPABLE or failed:
-            level = DiagnosticStatus.ERROR
-        elif loop.status != Status.RUNNING or lagging:
-            level = DiagnosticStatus.WARN
-        if loop.detail:
-            message = f"{loop.status}: {loop.detail}"
-        elif lagging:
-            message = (f"{loop.status}; too slow: the garments simulated only {1 - figures['lag_fraction']:.0%} of "
-                       f"the body's time (max_substeps), {figures['lag_s']:.3f} s behind in total")
-        values = {key: f"{value:.6g}" for key, value in figures.items()}
-        values.update({
-            "status": loop.status,
-            "garments": " ".join(loop.garments),
-            "mass_points": str(loop.mass_points),
-            "skeleton_age_s": f"{loop.skeleton_age(now.nanoseconds * 1e-9):.6g}",
-            "total_frames": str(self.stats.total_frames),
-            "frame_errors": str(self.frame_errors),
-            "params_file_errors": str(self.params_file_errors),
-        })
-        values.update({f"input_{key}": str(count) for key, count in sorted(self.input_counts.items())})
-        values.update({f"rejected_{key}": str(count) for key, count in sorted(self.buffer.rejected.items())})
-        values.update({f"adjusted_{key}": str(count) for key, count in sorted(self.buffer.adjusted.items())})
-        values.update({f"loop_{key}": str(count) for key, count in sorted(loop.counts.items())})
-        values.update({f"solver_{key}": str(count) for key, count in sorted(self.stats.recoveries.items())})
-        self.last_diagnostics = values
-        status = DiagnosticStatus(level=level, name=f"garment_sim: {self.get_fully_qualified_name()}",
-                                  message=message,
-                                  hardware_id=self.values["frame_prefix"] or self.values["fixed_frame"],
-                                  values=[KeyValue(key=k, value=v) for k, v in values.items()])
+        level, message = level_and_message(self.loop, figures, failed)
+        totals = {"total_frames": self.stats.total_frames, "frame_errors": self.frame_errors,
+                  "params_file_errors": self.params_watch.errors}
+        counters = {"input": self.input_counts, "rejected": self.buffer.rejected, "adjusted": self.buffer.adjusted,
+                    "loop": self.loop.counts, "solver": self.stats.recoveries}
+        self.last_diagnostics = status_values(self.loop, figures, now.nanoseconds * 1e-9, totals, counters)
+        status = diagnostic_status(f"garment_sim: {self.get_fully_qualified_name()}",
+                                   self.values["frame_prefix"] or self.values["fixed_frame"], level, message,
+                                   self.last_diagnostics)
         self.diagnostics_publisher.publish(DiagnosticArray(header=Header(stamp=now.to_msg()), status=[status]))
 
-    def _log(self, level: str, key: str, message: str) -> None:
+    def log_throttled(self, level: str, key: str, message: str) -> None:
         if not self._throttle.ready(key):
             return
         # one call per severity: rclpy's logger refuses two severities from one line of code
