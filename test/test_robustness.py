@@ -31,6 +31,7 @@ from garment_sim_ros.body.pose_buffer import PoseBuffer, SampleStatus
 from garment_sim_ros.cloth.solver import GarmentSolver
 from garment_sim_ros.params import DEFAULT_PARAMS
 from garment_sim_ros.ros.character_loop import BONE_CHECK_S, CLOCK_JUMP_BACK_S, CharacterLoop, Status
+from garment_sim_ros.ros.diagnostics import level_and_message
 from garment_sim_ros.ros.tf_input import seconds_to_stamp
 
 FRAME = 1.0 / 60.0
@@ -266,6 +267,8 @@ def test_a_teleport_dresses_the_garments_again_at_the_new_pose_without_whipping(
     feed(loop.buffer, t, offset=jump)
     loop.frame(t)
     assert loop.counts["teleported"] == 1
+    # the buffer dropped only the root's history before the jump: the skeleton is still there, data flows
+    assert "no transform" not in loop.detail and loop.skeleton is not None
     t = step_until_running(loop, t + FRAME, 5 + round(BONE_CHECK_S / FRAME), offset=jump)
     assert loop.status == Status.RUNNING, loop.detail
     worst_speed = 0.0
@@ -429,3 +432,13 @@ def test_a_stall_is_lag_not_a_teleport_and_frames_past_the_data_hold_at_its_time
     feed(loop.buffer, t)
     result = loop.frame(t)
     assert loop.counts["teleported"] == 0 and result.reports and result.time_s == pytest.approx(t)
+
+
+def test_a_lag_share_of_almost_no_time_is_no_lag_warning():
+    """Issue 18: WARN "too slow ... only 22 % ... 0.000 s behind" after a resume: a window holding almost no
+    body time. The status warns when the garments lag by a share of the time and by a measurable amount."""
+    loop, _ = running_loop()
+    figures = {"lag_fraction": 0.78, "lag_s": 0.0}
+    assert level_and_message(loop, figures, False) == (DiagnosticStatus.OK, Status.RUNNING)
+    level, message = level_and_message(loop, {"lag_fraction": 0.78, "lag_s": 0.2}, False)
+    assert level == DiagnosticStatus.WARN and "too slow" in message and "0.200 s behind" in message
