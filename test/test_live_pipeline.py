@@ -66,8 +66,9 @@ def test_held_garment_published_with_its_pose_time_for_late_joiners_and_a_clean_
 
     late: list[bytes] = []
     try:
-        spin(START_TIMEOUT_S, lambda: len(markers) >= 5)
-        assert len(markers) >= 5, "no markers within the start timeout"
+        spin(START_TIMEOUT_S, lambda: len(markers) >= 5 and len(transforms) >= 10)  # this process hears both
+        assert len(markers) >= 5 and len(transforms) >= 10, ("no markers or /tf within the start timeout",
+                                                              len(markers), len(transforms))
         spin(1.0)
         player.send_signal(signal.SIGSTOP)
         frozen_at = time.monotonic()
@@ -114,5 +115,5 @@ def test_held_garment_published_with_its_pose_time_for_late_joiners_and_a_clean_
                for t, s in statuses if frozen_at < t < resumed_at)
     # and followed again
     assert any(t > resumed_at + 0.5 for t, _ in markers)
-    assert any(s.message == "running" for t, s in statuses if t > resumed_at + 0.5), [
+    assert any(s.message.startswith("running") for t, s in statuses if t > resumed_at + 0.5), [
         s.message for t, s in statuses if t > resumed_at]
