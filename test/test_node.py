@@ -483,3 +483,17 @@ def test_watching_turned_on_at_run_time_survives_a_file_that_says_false(graph, t
     assert graph.spin_until(lambda: node.get_parameter("friction").value == 0.5, 3.0)
     path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: 0.5\n    watch_params_file: false\n")
     assert graph.spin_until(lambda: node.get_parameter("watch_params_file").value is False, 3.0)  # an edit of it
+
+
+def test_unknown_start_up_parameters_are_named(graph, tmp_path, capfd):
+    """Start-up values go through rclpy's public parameter callbacks: a typo in the params file or the
+    overrides is named (rclpy keeps it as an override nobody declares), a bad value falls back to the default."""
+    path = tmp_path / "start.yaml"
+    path.write_text("garment_sim_node:\n  ros__parameters:\n    frictoin: 0.3\n    friction: 0.35\n")
+    arguments = ["--ros-args", "--params-file", str(path), "-p", "rate_hz:=5000.0"]
+    node = graph.add(GarmentSimNode(context=graph.context, cli_args=arguments, parameter_overrides=[
+        Parameter("substeps_max", value=3)], params_file_hint=params_file_from_args(arguments)))
+    assert node.get_parameter("friction").value == 0.35 and node.values["friction"] == 0.35
+    assert node.get_parameter("rate_hz").value == node.values["rate_hz"] == 60.0  # out of range: the default
+    log = capfd.readouterr().err
+    assert "frictoin" in log and "substeps_max" in log and "rate_hz" in log

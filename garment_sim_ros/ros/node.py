@@ -37,6 +37,8 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
+from rclpy.exceptions import (InvalidParameterTypeException, InvalidParameterValueException,
+                              ParameterNotDeclaredException)
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -75,13 +77,21 @@ _REDRESS_KEYS = ("garments", "resolution")
 _CLEAR_KEYS = ("garments", "resolution", "marker_namespace", "publish_volumes")
 
 
+class UndeclaredParameters(ParameterNotDeclaredException):
+    """rclpy's refusal of undeclared parameters (the parameter services answer with it), naming them."""
+
+    def __init__(self, message: str):
+        Exception.__init__(self, message)
+
+
 class GarmentSimNode(Node):
     """Dresses the character of ``frame_prefix`` on /tf; see the module docstring."""
 
     def __init__(self, node_name: str = NODE_NAME, *, params_file_hint: str = "", **kwargs):
         super().__init__(node_name, **kwargs)
         self._throttle = Throttle()
-        self.values: dict[str, Any] = self._declare_parameters()
+        self._refusals: dict[str, str] = {}  # parameter -> the tables' reason, from _prepare for _check
+        self.values: dict[str, Any] = self._declare_parameters(kwargs.get("parameter_overrides") or ())
         self.solver_params = SolverParams(**{name: self.values[name] for name in SOLVER_PARAMETER_NAMES})
         v = self.values
         self.buffer = PoseBuffer(v["fixed_frame"], max_age_s=v["max_skeleton_age"],
@@ -120,67 +130,85 @@ class GarmentSimNode(Node):
         self.rerun = self._create_rerun_logger()
 
     # ------------------------------------------------------------------------------ parameters
-    def _declare_parameters(self) -> dict[str, Any]:
-        """Declare every table row; start-up values (--params-file, -p) are validated like runtime ones."""
-        overrides = getattr(self, "_parameter_overrides", {})
+    # rclpy's public callbacks: ``_prepare`` (pre-set, runtime sets only) checks against the tables and
+    # types the values as declared; rclpy then checks the descriptors (type, range, read-only), ``_check``
+    # (on-set, also at declaration) refuses with the table's reason, ``_accepted`` (post-set) applies.
+    # rclpy checks descriptors before on-set callbacks, and its messages lack the table's units and
+    # allowed values: a value ``_prepare`` refuses is passed on as the current one (rclpy finds nothing
+    # wrong) and ``_check`` refuses it with the table's reason.
+    def _declare_parameters(self, overrides: Sequence[Parameter]) -> dict[str, Any]:
+        """Declare every table row; start-up values (--params-file, -p) are checked by ``_check`` like
+        runtime ones: a refused one is logged and the default used."""
+        self.add_on_set_parameters_callback(self._check)
         values = {}
         for row in ALL_PARAMETERS:
-            value = row.default
-            if row.name in overrides:
-                given = plain(overrides[row.name].value)
-                try:
-                    value = row.check(given)
-                except ParameterError as err:
-                    self.get_logger().error(f"start-up parameter refused: {err}; using the default {row.default!r}")
-            self.declare_parameter(row.name, ros_value(value), descriptor(row), ignore_override=True)
-            values[row.name] = value
-        unknown = sorted(set(overrides) - set(PARAMETER_ROWS) - {"use_sim_time"})
+            try:
+                self.declare_parameter(row.name, ros_value(row.default), descriptor(row))
+            except (InvalidParameterTypeException, InvalidParameterValueException) as err:
+                self.get_logger().error(f"start-up parameter refused: {err}; using the default {row.default!r}")
+                self.declare_parameter(row.name, ros_value(row.default), descriptor(row), ignore_override=True)
+            values[row.name] = row.check(plain(self.get_parameter(row.name).value))
+        unknown = sorted({p.name for p in overrides} - set(PARAMETER_ROWS) - {"use_sim_time"})
         if unknown:
             self.get_logger().warning(f"unknown start-up parameter(s) {', '.join(unknown)} ignored; known: "
                                       f"{', '.join(PARAMETER_ROWS)}")
+        self.add_pre_set_parameters_callback(self._prepare)
+        self.add_post_set_parameters_callback(self._accepted)
         return values
 
-    def _validate(self, parameters: Sequence[Parameter]) -> tuple[list[Parameter], dict[str, Any]]:
-        """Parameters typed as declared, and the table values they set; ``ParameterError`` for a bad one."""
-        checked, changes = [], {}
+    def _prepare(self, parameters: list[Parameter]) -> list[Parameter]:
+        """Pre-set: each parameter typed as declared (an integer for a real number is that number), or,
+        refused by the tables, its current value with the reason kept for ``_check``."""
+        self._refusals = {}
+        undeclared = [p.name for p in parameters if not self.has_parameter(p.name)]
+        if undeclared:  # rclpy Jazzy's own refusal names none of them (it lists a consumed generator)
+            reason = f"undeclared parameter(s) {', '.join(undeclared)}; known: {', '.join(PARAMETER_ROWS)}"
+            self.get_logger().warning(f"parameter set refused: {reason}")
+            raise UndeclaredParameters(reason)
+        prepared, changes = [], {}
         for parameter in parameters:
             name = parameter.name
             if name not in PARAMETER_ROWS:
-                if not self.has_parameter(name):  # rclpy Jazzy's refusal names none (a consumed generator)
-                    raise ParameterError(f"{name}: undeclared parameter; known: {', '.join(PARAMETER_ROWS)}")
-                checked.append(parameter)  # use_sim_time: rclpy's own rules apply
+                prepared.append(parameter)  # use_sim_time: rclpy's own rules apply
                 continue
-            if parameter.type_ == Parameter.Type.NOT_SET:
-                raise ParameterError(f"{name}: cannot be unset; allowed: {PARAMETER_ROWS[name].allowed()}")
-            value = PARAMETER_ROWS[name].check(plain(parameter.value))
-            if is_read_only(name):
-                raise ParameterError(f"{name}: read-only, set at start (--params-file or -p); running with "
-                                     f"{self.values[name]!r}, got {value!r}")
-            checked.append(Parameter(name, parameter_type(PARAMETER_ROWS[name]), ros_value(value)))
+            try:
+                if parameter.type_ == Parameter.Type.NOT_SET:
+                    raise ParameterError(f"{name}: cannot be unset; allowed: {PARAMETER_ROWS[name].allowed()}")
+                value = PARAMETER_ROWS[name].check(plain(parameter.value))
+                if is_read_only(name):
+                    raise ParameterError(f"{name}: read-only, set at start (--params-file or -p); running with "
+                                         f"{self.values[name]!r}, got {value!r}")
+            except ParameterError as err:
+                self._refusals[name] = str(err)
+                prepared.append(self.get_parameter(name))
+                continue
+            prepared.append(Parameter(name, parameter_type(PARAMETER_ROWS[name]), ros_value(value)))
             changes[name] = value
         solver_changes = {k: v for k, v in changes.items() if k in SOLVER_PARAMETER_NAMES}
-        if solver_changes:
-            self.solver_params.replace(**solver_changes)
-        return checked, changes
-
-    def set_parameters_atomically(self, parameter_list: list[Parameter]) -> SetParametersResult:
-        """rclpy's, after validating against the parameter tables (the parameter services call this)."""
         try:
-            checked, changes = self._validate(parameter_list)
+            self.solver_params.replace(**solver_changes)  # the combination must be valid too
         except ParameterError as err:
-            result = SetParametersResult(successful=False, reason=str(err))
-        else:
-            result = super().set_parameters_atomically(checked)
-        if result.successful:
-            self._accept(changes)
-        else:  # every refused set said once, whoever asked (services, set_parameters, the watched file)
-            self.get_logger().warning(f"parameter set refused: {result.reason}")
-        return result
+            self._refusals.update({name: str(err) for name in solver_changes})
+        for reason in dict.fromkeys(self._refusals.values()):  # every refused set said once
+            self.get_logger().warning(f"parameter set refused: {reason}")
+        return prepared
 
-    def set_parameters(self, parameter_list: list[Parameter]) -> list[SetParametersResult]:
-        return [self.set_parameters_atomically([parameter]) for parameter in parameter_list]
+    def _check(self, parameters: list[Parameter]) -> SetParametersResult:
+        """On-set (runtime sets after ``_prepare``, and declarations): the table's refusal, if any."""
+        for parameter in parameters:
+            reason = self._refusals.get(parameter.name)
+            if reason is None and parameter.name in PARAMETER_ROWS:
+                try:
+                    PARAMETER_ROWS[parameter.name].check(plain(parameter.value))
+                except ParameterError as err:
+                    reason = str(err)
+            if reason is not None:
+                return SetParametersResult(successful=False, reason=reason)
+        return SetParametersResult(successful=True)
 
-    def _accept(self, changes: dict[str, Any]) -> None:
+    def _accepted(self, parameters: list[Parameter]) -> None:
+        """Post-set: the new values take effect at the next frame (timers at once)."""
+        changes = {p.name: PARAMETER_ROWS[p.name].check(plain(p.value)) for p in parameters if p.name in PARAMETER_ROWS}
         self.values.update(changes)
         self._pending.update(changes)
         if "rate_hz" in changes:

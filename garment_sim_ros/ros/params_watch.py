@@ -5,7 +5,8 @@ message names the file, the key and what is allowed, and the last good configura
 watch's own switches (``watch_params_file``, ``params_file``) are taken from the file only when an
 edit changes them: a watch turned on through the parameter service stays on while the file goes on
 saying ``false`` (issue 18). A file without a section for the node's fully qualified name is said,
-with the key to use, at start and when watched: rclpy ignores it without a word.
+with the key to use, at start and when watched, and so are unknown keys in the start-up file: rclpy
+ignores both without a word.
 """
 
 from __future__ import annotations
@@ -37,8 +38,13 @@ class ParamsFileWatch:
         self.message = ""
         self._watch: FileWatch | None = None
         self._switches: dict[str, Any] = {}  # WATCH_KEYS as the watched file said at the last read
-        if start_file and self._read_section(start_file) == {}:
+        section = self._read_section(start_file) if start_file else None
+        if section == {}:
             self.warn_no_section(start_file)
+        unknown = sorted(set(section or ()) - set(PARAMETER_ROWS) - {"use_sim_time"})
+        if unknown:  # rclpy keeps them as overrides nobody declares, silently
+            node.get_logger().warning(f"{start_file}: unknown parameter(s) {', '.join(unknown)} ignored; known: "
+                                      f"{', '.join(PARAMETER_ROWS)}")
 
     def path(self) -> str:
         return self.node.values["params_file"] or self.start_file
