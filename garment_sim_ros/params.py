@@ -105,7 +105,8 @@ PARAMETERS: tuple[Param, ...] = (
     Param("angular_inertia_scale", 1.0, "1", 0.0, 1.0,
           "how much of the root's yaw rotation the garment feels (centrifugal, Coriolis, Euler forces)"),
     Param("teleport_distance", 1.0, "m", 0.0, 1e6,
-          "a root jump longer than this within one frame carries the garment along rigidly (no inertia)"),
+          "a root jump longer than this within one frame carries the garment along rigidly (no inertia); "
+          "the node dresses again once the next /tf sample confirms it (else the sample is an outlier)"),
     # collision (memo §6)
     Param("friction", 0.2, "1", 0.0, 100.0, "k_f of the modified Coulomb law (memo Eq. 6-2)"),
     Param("collision_epsilon", 0.003, "m", 0.0, 0.1, "points are put this far outside a volume's surface"),

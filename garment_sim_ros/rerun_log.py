@@ -249,7 +249,7 @@ class RerunLogger:
             quality = {solver.model.name: report_scalars(report)
                        for solver, report in zip(character.solvers, reports)}
         timings["publish"] = publish_s
-        time_s = result.pose_time_s if math.isfinite(result.pose_time_s) else result.time_s
+        time_s = result.time_s
         self.log_frame(time_s, timings_ms={k: 1e3 * s for k, s in timings.items()}, quality=quality,
                        inputs=inputs, frame=frame, **payload)
         for solver, report in zip(character.solvers, reports):

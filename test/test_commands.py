@@ -38,6 +38,7 @@ def test_demo_json_summary_reads_back_from_a_real_run(tmp_path):
     rrd = tmp_path / "demo.rrd"
     result = garment_sim("demo", "--duration", "2", "--garments", "pants", "--rrd", str(rrd), "--json")
     assert result.returncode == 0, result.stderr[-2000:]
+    assert "[WARN]" not in result.stderr and "[ERROR]" not in result.stderr, result.stderr  # issue 18: a clean start
     summary = json.loads(result.stdout.strip().splitlines()[-1])
     assert {"garments", "fps", "frames", "max_penetration_m", "rrd"} <= set(summary)
     assert summary["garments"] == [{"name": "pants", "mass_points": summary["garments"][0]["mass_points"]}]

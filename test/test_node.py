@@ -22,8 +22,9 @@ from node_harness import (CHARACTER, Probe, SkeletonPublisher, feed, garment_nod
 from rcl_interfaces.msg import ParameterType
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
+from rclpy.serialization import deserialize_message
 from tf2_msgs.msg import TFMessage
-from visualization_msgs.msg import Marker
+from visualization_msgs.msg import Marker, MarkerArray
 
 from garment_sim_ros.body.pose_buffer import PoseBuffer
 from garment_sim_ros.params import DEFAULT_PARAMS, PARAMETERS
@@ -199,7 +200,9 @@ def test_node_holds_when_the_skeleton_stops_and_resumes_when_it_restarts(graph):
     graph.spin_for(0.4)
     assert node.loop.status == Status.HOLDING and "stale" in node.loop.detail
     assert node.loop.counts["stale"] > 0
-    assert node.stats.total_frames == held_frames and len(probe.markers) == held_markers  # nothing new
+    assert node.stats.total_frames == held_frames  # nothing simulated...
+    # ...and the held garment goes on being published at rate_hz, the same message (issue 18: late joiners)
+    assert len(probe.markers) > held_markers + 5 and probe.markers[-1] == probe.markers[held_markers]
     assert all(np.array_equal(a, b) for a, b in zip(held_positions, node.loop.character.world_positions()))
     warned = [s for s in probe.statuses_of(node) if s.level == DiagnosticStatus.WARN and "stale" in s.message]
     assert warned
@@ -321,10 +324,10 @@ def test_params_file_watch_applies_a_change_and_refuses_a_broken_file(graph, tmp
     assert graph.spin_until(lambda: node.get_parameter("friction").value == 0.45, 3.0)
     assert node.get_parameter("rate_hz").value == 30.0 and node.frame_timer.timer_period_ns == int(1e9 / 30)
 
-    errors = node.params_file_errors
+    errors = node.params_watch.errors
     path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: [0.9\n")  # YAML syntax error
-    assert graph.spin_until(lambda: node.params_file_errors > errors, 3.0)
-    assert str(path) in node.params_file_message and "not valid YAML" in node.params_file_message
+    assert graph.spin_until(lambda: node.params_watch.errors > errors, 3.0)
+    assert str(path) in node.params_watch.message and "not valid YAML" in node.params_watch.message
     assert node.get_parameter("friction").value == 0.45
 
     for text, expected in (
@@ -332,10 +335,10 @@ def test_params_file_watch_applies_a_change_and_refuses_a_broken_file(graph, tmp
         ("    friction: 0.5\n    substep: 2.0\n", "substep: got 2.0; allowed: [1e-05, 0.1] s"),
         ("    friction: 0.5\n    fixed_frame: map\n", "fixed_frame: read-only"),
     ):
-        errors = node.params_file_errors
+        errors = node.params_watch.errors
         path.write_text("garment_sim_node:\n  ros__parameters:\n" + text)
-        assert graph.spin_until(lambda: node.params_file_errors > errors, 3.0)
-        assert expected in node.params_file_message and str(path) in node.params_file_message
+        assert graph.spin_until(lambda: node.params_watch.errors > errors, 3.0)
+        assert expected in node.params_watch.message and str(path) in node.params_watch.message
         assert node.get_parameter("friction").value == 0.45  # the whole file was refused
 
 
@@ -346,7 +349,7 @@ def test_watching_the_start_up_params_file_applies_only_later_edits(graph, tmp_p
     arguments = ["--ros-args", "--params-file", str(path), "-p", "friction:=0.5"]
     node = graph.add(GarmentSimNode(context=graph.context, cli_args=arguments,
                                     params_file_hint=params_file_from_args(arguments)))
-    assert node.params_file_path() == str(path)
+    assert node.params_watch.path() == str(path)
     graph.spin_for(0.3)
     assert node.get_parameter("friction").value == 0.5  # -p wins over the file it was started with
     path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: 0.35\n    watch_params_file: true\n")
@@ -463,3 +466,81 @@ def test_body_file_overrides_the_fitted_volumes_and_a_bad_one_is_reported(tmp_pa
         else:
             assert loop.status == Status.UNMAPPABLE and loop.character is None
             assert "bad_body.yaml" in loop.detail and "left_upper_leg" in loop.detail
+
+
+# ------------------------------------------------------------------------------------ saying what is wrong
+def test_misconfiguration_is_said_naming_what_to_use(graph, tmp_path, capfd):
+    """Issue 18: a params file keyed for another name, two skeletons that frame_prefix does not tell apart,
+    an undeclared parameter and refused sets were silent or said nothing useful."""
+    path = tmp_path / "wrong_key.yaml"
+    path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: 0.3\n")  # the node runs as /alice/...
+    arguments = ["--ros-args", "--params-file", str(path)]
+    node = graph.add(GarmentSimNode(context=graph.context, namespace="alice", cli_args=arguments,
+                                    params_file_hint=params_file_from_args(arguments)))
+    graph.add(SkeletonPublisher(graph.context, "a/", name="a_player").node)
+    graph.add(SkeletonPublisher(graph.context, "b/", offset=(0.0, 4.0, 0.0), name="b_player").node)
+    probe = Probe(graph.context, "/alice/garment_sim_node/markers")
+    graph.add(probe.node)
+    client_node = graph.add(rclpy.create_node("parameter_client", context=graph.context))
+    client = AsyncParameterClient(client_node, "/alice/garment_sim_node")
+    assert graph.spin_until(lambda: client.services_are_ready(), 10.0)
+    assert graph.spin_until(running(node, 3), 20.0), node.loop.detail
+
+    def set_remotely(*parameters):
+        future = client.set_parameters(list(parameters))
+        assert graph.spin_until(future.done, 5.0)
+        return future.result().results
+
+    (undeclared,) = set_remotely(Parameter("frictoin", value=0.3))
+    assert not undeclared.successful and "frictoin" in undeclared.reason and "friction" in undeclared.reason
+    (bad,) = set_remotely(Parameter("substep", value=5.0))
+    assert not bad.successful
+
+    # publish_volumes off: the volume markers are deleted, not left in RViz
+    assert any(m.type == Marker.SPHERE for m in probe.last_markers().markers)
+    seen = len(probe.markers)
+    (volumes_off,) = set_remotely(Parameter("publish_volumes", value=False))
+    assert volumes_off.successful
+    assert graph.spin_until(lambda: len(probe.markers) > seen + 3, 3.0)
+    after = [deserialize_message(data, MarkerArray).markers for data in probe.markers[seen:]]
+    first = next(k for k, markers in enumerate(after) if not any(m.type == Marker.SPHERE for m in markers))
+    assert after[first][0].action == Marker.DELETEALL  # the spheres' first message without them deletes them
+    assert not any(m.type == Marker.SPHERE for markers in after[first:] for m in markers)
+
+    log = capfd.readouterr().err
+    assert "/alice/garment_sim_node" in log and "'alice/garment_sim_node'" in log and str(path) in log
+    assert "'a/pelvis'" in log and "'b/pelvis'" in log and f"dressing {node.loop.skeleton.names[0]!r}" in log
+    refusals = [line for line in log.splitlines() if "parameter set refused" in line]
+    assert len(refusals) == 2 and "frictoin" in refusals[0] and "substep" in refusals[1]  # each said once
+
+
+def test_watching_turned_on_at_run_time_survives_a_file_that_says_false(graph, tmp_path):
+    """Issue 18: turned on through the parameter service, the watch turned itself off at the first edit of a
+    file that still said ``watch_params_file: false``. The watch's switches apply only when an edit changes them."""
+    path = tmp_path / "tuning.yaml"
+    path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: 0.3\n    watch_params_file: false\n")
+    node = garment_node(graph, watch_period=0.05)
+    assert node.set_parameters([Parameter("params_file", value=str(path))])[0].successful
+    assert node.set_parameters([Parameter("watch_params_file", value=True)])[0].successful
+    assert graph.spin_until(lambda: node.get_parameter("friction").value == 0.3, 3.0)
+    path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: 0.4\n    watch_params_file: false\n")
+    assert graph.spin_until(lambda: node.get_parameter("friction").value == 0.4, 3.0)
+    assert node.get_parameter("watch_params_file").value is True
+    path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: 0.5\n    watch_params_file: true\n")
+    assert graph.spin_until(lambda: node.get_parameter("friction").value == 0.5, 3.0)
+    path.write_text("garment_sim_node:\n  ros__parameters:\n    friction: 0.5\n    watch_params_file: false\n")
+    assert graph.spin_until(lambda: node.get_parameter("watch_params_file").value is False, 3.0)  # an edit of it
+
+
+def test_unknown_start_up_parameters_are_named(graph, tmp_path, capfd):
+    """Start-up values go through rclpy's public parameter callbacks: a typo in the params file or the
+    overrides is named (rclpy keeps it as an override nobody declares), a bad value falls back to the default."""
+    path = tmp_path / "start.yaml"
+    path.write_text("garment_sim_node:\n  ros__parameters:\n    frictoin: 0.3\n    friction: 0.35\n")
+    arguments = ["--ros-args", "--params-file", str(path), "-p", "rate_hz:=5000.0"]
+    node = graph.add(GarmentSimNode(context=graph.context, cli_args=arguments, parameter_overrides=[
+        Parameter("substeps_max", value=3)], params_file_hint=params_file_from_args(arguments)))
+    assert node.get_parameter("friction").value == 0.35 and node.values["friction"] == 0.35
+    assert node.get_parameter("rate_hz").value == node.values["rate_hz"] == 60.0  # out of range: the default
+    log = capfd.readouterr().err
+    assert "frictoin" in log and "substeps_max" in log and "rate_hz" in log

@@ -314,3 +314,33 @@ def test_constructor_refuses_bad_settings():
         PoseBuffer(max_age_s=math.nan)
     with pytest.raises(ValueError, match="fixed_frame"):
         PoseBuffer(fixed_frame="")
+
+
+@pytest.mark.parametrize("batched", [False, True], ids=["one_by_one", "batched"])
+def test_a_lone_root_outlier_is_dropped_and_a_confirmed_jump_forgets_the_history_before_it(batched):
+    """Issue 18: one bad root sample 25 m away re-dressed the character. A jump counts only when the next
+    sample stays there; a lone outlier never reaches a sample, and is counted."""
+    buffer = PoseBuffer(jump_distance_m=1.0)
+
+    def add(t, x):
+        if batched:
+            buffer.add_transforms([t], ["world"], ["pelvis"], [[x, 0.0, 1.0]], [IDENTITY_QUAT])
+        else:
+            buffer.add_transform(t, "world", "pelvis", [x, 0.0, 1.0], IDENTITY_QUAT)
+
+    for k in range(10):
+        add(1.0 + k / 100, 1.3 * k / 100)  # walking at 1.3 m/s
+    add(1.10, 25.0)  # the outlier: held back, not sampled
+    assert buffer.sample(1.10, ["pelvis"]).pose.positions[0][0] < 0.2
+    add(1.11, 0.143)  # the next sample is back on the path: the outlier is dropped
+    assert buffer.rejected == {"root_outlier": 1} and buffer.sample_count("pelvis") == 11
+    assert all(buffer.sample(t, ["pelvis"]).pose.positions[0][0] < 0.2 for t in np.linspace(1.0, 1.11, 12))
+
+    add(1.12, -4.0)  # a clip looping back: held until...
+    add(1.13, -3.99)  # ...the next sample confirms it: the history before the jump is dropped
+    assert buffer.adjusted["jump_confirmed"] == 1 and buffer.rejected["root_outlier"] == 1
+    assert buffer.sample_count("pelvis") == 2
+    assert buffer.sample(1.125, ["pelvis"]).pose.positions[0][0] == pytest.approx(-3.995)
+
+    add(1.63, -3.99 + 1.3 * 0.5)  # a publisher stalled for 0.5 s while the body walked on: no jump
+    assert buffer.sample_count("pelvis") == 3 and buffer.adjusted["jump_confirmed"] == 1

@@ -31,6 +31,7 @@ from garment_sim_ros.body.pose_buffer import PoseBuffer, SampleStatus
 from garment_sim_ros.cloth.solver import GarmentSolver
 from garment_sim_ros.params import DEFAULT_PARAMS
 from garment_sim_ros.ros.character_loop import BONE_CHECK_S, CLOCK_JUMP_BACK_S, CharacterLoop, Status
+from garment_sim_ros.ros.diagnostics import level_and_message
 from garment_sim_ros.ros.tf_input import seconds_to_stamp
 
 FRAME = 1.0 / 60.0
@@ -261,7 +262,13 @@ def test_a_teleport_dresses_the_garments_again_at_the_new_pose_without_whipping(
     jump = np.array([4.0, -3.0, 0.0])  # the clip looped back: the root 5 m away from one message to the next
     feed(loop.buffer, t, offset=jump)
     loop.frame(t)
+    assert loop.counts["teleported"] == 0  # one sample is no jump yet (issue 18): the next must confirm it
+    t += FRAME
+    feed(loop.buffer, t, offset=jump)
+    loop.frame(t)
     assert loop.counts["teleported"] == 1
+    # the buffer dropped only the root's history before the jump: the skeleton is still there, data flows
+    assert "no transform" not in loop.detail and loop.skeleton is not None
     t = step_until_running(loop, t + FRAME, 5 + round(BONE_CHECK_S / FRAME), offset=jump)
     assert loop.status == Status.RUNNING, loop.detail
     worst_speed = 0.0
@@ -284,6 +291,7 @@ def test_a_jump_shorter_than_the_teleport_distance_is_simulated_through():
     loop, t = running_loop(teleport_distance=10.0)
     feed(loop.buffer, t, offset=(4.0, -3.0, 0.0))
     loop.frame(t)
+    assert loop.buffer.adjusted["jump_confirmed"] == 0
     assert loop.counts["teleported"] == 0 and loop.status == Status.RUNNING
     assert all(np.all(np.isfinite(p)) for p in loop.character.world_positions())
 
@@ -354,16 +362,83 @@ def test_stray_frames_while_the_skeleton_stalls_are_no_new_skeleton():
     assert loop.frame(t) is not None and set(loop.skeleton.names) == set(NAMES)
 
 
-def test_a_frame_past_the_extrapolation_bound_carries_the_time_of_its_pose_not_the_frame_time():
-    """The buffer extrapolates at most max_extrapolation_s past its newest data, then holds: a frame simulated
-    on that held pose is stamped with the pose's time, never a newer one (issue 17: "never publishes a pose
-    under a stamp newer than the pose")."""
+def test_a_frame_past_the_extrapolation_bound_is_simulated_to_the_time_of_its_pose_and_says_so():
+    """The buffer extrapolates at most max_extrapolation_s past its newest data, then holds: a frame asked for
+    later is simulated to that pose's time, not its own (issue 18: markers 0.5 m behind the pelvis at their own
+    stamp); asked again with no newer data, it is held; and the status says the skeleton is behind."""
     loop, t = running_loop()
     newest = t - FRAME  # running_loop fed up to here
     result = loop.frame(t)  # inside the bound: the pose is the frame's own time
-    assert result.pose_time_s == pytest.approx(t)
+    assert result.time_s == pytest.approx(t) and loop.status == Status.RUNNING
     late = newest + loop.buffer.max_extrapolation_s + 0.05  # the data stalled: 0.05 s past the bound
     result = loop.frame(late)
     assert result is not None and result.reports
-    assert result.pose_time_s == pytest.approx(newest + loop.buffer.max_extrapolation_s)
-    assert result.pose_time_s < result.time_s
+    assert result.time_s == pytest.approx(newest + loop.buffer.max_extrapolation_s) == loop.last_time
+    assert loop.status == Status.BEHIND and "max_extrapolation" in loop.detail
+    assert loop.frame(late + FRAME) is None and loop.counts["no_new_pose"] == 1  # nothing newer: held
+    assert loop.last_time == pytest.approx(newest + loop.buffer.max_extrapolation_s)
+
+
+def test_a_frame_time_that_goes_back_a_little_is_folded_into_the_next_counted_not_logged():
+    """T_next = D_last + now goes back after a slow frame: that frame is folded into the next (which starts
+    from the last frame's time: no body time is dropped), counted, and not logged (issue 18: 43 of 200 log
+    lines said "frame time ... is not after the last frame's")."""
+    logged = []
+    loop, t = running_loop()
+    loop.logger = type("Logger", (), {level: lambda self, m, level=level: logged.append((level, m))
+                                      for level in ("info", "warning", "error")})()
+    feed(loop.buffer, t)
+    assert loop.frame(t) is not None
+    assert loop.frame(t - 0.05) is None and loop.counts["folded_into_next"] == 1 and not logged
+    feed(loop.buffer, t + FRAME)
+    result = loop.frame(t + FRAME)
+    assert result.frame_s == pytest.approx(FRAME) and loop.status == Status.RUNNING
+
+
+def test_a_lone_root_outlier_is_rejected_and_counted_and_never_re_dresses():
+    """Issue 18: a single 25 m root sample logged "the root jumped 48.76 m ... dressing again"."""
+    loop, t = running_loop()
+    feed(loop.buffer, t, offset=(25.0, 0.0, 0.0))  # one bad root sample (the joints' offsets are unchanged)
+    loop.frame(t)
+    for _ in range(10):
+        t += FRAME
+        feed(loop.buffer, t)
+        result = loop.frame(t)
+    assert loop.counts["teleported"] == 0 and loop.buffer.rejected["root_outlier"] == 1
+    assert not result.dressed and result.reports
+    pelvis = CHARACTER.pose(result.time_s).frame("pelvis")[0]
+    for points in loop.character.world_positions():
+        assert np.linalg.norm(points.mean(axis=0)[:2] - pelvis[:2]) < 0.3
+    assert max(float(np.abs(s.state.velocities).max()) for s in loop.character.solvers) < 10.0
+
+
+def test_a_stall_is_lag_not_a_teleport_and_frames_past_the_data_hold_at_its_time():
+    """Issue 18: a stall gave a false teleport ("the root jumped 1.29 m") because the frames during it were
+    simulated to their own time on a held pose. Now a frame goes no further than the newest pose plus
+    max_extrapolation: during the stall the garments hold at that time, and across it the root moved at
+    walking speed, which is lag, not a teleport, even with a teleport_distance shorter than the walk."""
+    loop, t = running_loop(teleport_distance=0.2)
+    loop.buffer.max_age_s = 0.6  # the stall stays short of stale: frames go on being asked
+    newest = t - FRAME
+    bound = newest + loop.buffer.max_extrapolation_s
+    stalled_until = t + 0.4
+    while t < stalled_until:  # no /tf for 0.4 s
+        result = loop.frame(t)
+        assert result is None or result.time_s <= bound + 1e-9  # never past the pose the buffer has
+        t += FRAME
+    assert loop.last_time == pytest.approx(bound) and loop.counts["no_new_pose"] > 10
+    walked = np.linalg.norm(CHARACTER.pose(t).frame("pelvis")[0][:2] - CHARACTER.pose(bound).frame("pelvis")[0][:2])
+    assert walked > loop.params.teleport_distance  # farther than teleport_distance, at a body's speed
+    feed(loop.buffer, t)
+    result = loop.frame(t)
+    assert loop.counts["teleported"] == 0 and result.reports and result.time_s == pytest.approx(t)
+
+
+def test_a_lag_share_of_almost_no_time_is_no_lag_warning():
+    """Issue 18: WARN "too slow ... only 22 % ... 0.000 s behind" after a resume: a window holding almost no
+    body time. The status warns when the garments lag by a share of the time and by a measurable amount."""
+    loop, _ = running_loop()
+    figures = {"lag_fraction": 0.78, "lag_s": 0.0}
+    assert level_and_message(loop, figures, False) == (DiagnosticStatus.OK, Status.RUNNING)
+    level, message = level_and_message(loop, {"lag_fraction": 0.78, "lag_s": 0.2}, False)
+    assert level == DiagnosticStatus.WARN and "too slow" in message and "0.200 s behind" in message

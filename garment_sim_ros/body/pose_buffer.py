@@ -23,11 +23,18 @@ the same as ``transforms.py``'s poses).
 - Bad input is refused with a message and counted, never raised: ``rejected[reason]`` counts
   refusals (``non_finite``, ``malformed``, ``bad_frame_name``, ``zero_quaternion``,
   ``non_unit_quaternion``, ``cycle``, ``too_old``, ``from_future`` (given the receiver's clock),
-  ``too_many_frames``; and ``degenerate_root``, a
+  ``too_many_frames``; ``root_outlier``, see below; and ``degenerate_root``, a
   ``root_motion`` whose hips coincide horizontally); ``adjusted[what]`` counts
   accepted input that was changed or replaced something (``normalised_quaternion``,
   ``reparented``: a child with a new parent, latest wins and the old history is dropped;
-  ``static_dynamic_switch``; ``out_of_order``; ``duplicate_replaced``).
+  ``static_dynamic_switch``; ``out_of_order``; ``duplicate_replaced``; ``jump_confirmed``).
+- A jump counts only when the next sample confirms it: a dynamic sample whose translation is more
+  than ``jump_distance_m`` from the newest, faster than ``MAX_FRAME_SPEED``, is held back (not
+  sampled) until the child's next sample. Near it, the jump is real (a clip looping back, a
+  teleport): the history before it is dropped, its place is another, and the kinematics must not
+  see thousands of m/s^2 across it (``jump_confirmed``). Not near it, it was a lone outlier (one bad
+  root sample 25 m away): dropped (``root_outlier``; in practice only roots move that far, a joint's
+  offset does not). A gap in the stamps (a stalled publisher) is no jump: the speed stays a body's.
 """
 
 from __future__ import annotations
@@ -47,6 +54,7 @@ from .skeleton import Skeleton, SkeletonPose, compose_tree
 
 _UNIT_SILENT = 1e-3  # |q| within this of 1 is rounding: normalised without being counted
 EXTRAPOLATION_SPAN_S = 0.01  # extrapolation takes its velocity over at least this span (see _Series.bracket)
+MAX_FRAME_SPEED = 12.0  # m/s, faster than any sprinter: a translation faster than this between samples jumped
 
 
 class SampleStatus(Enum):
@@ -153,6 +161,9 @@ class _Series:
     def newest(self) -> float:
         return float(self._stamps[self._end - 1])
 
+    def clear(self) -> None:
+        self._start = self._end = 0
+
     def append(self, stamp: float, translation: np.ndarray, rotation: np.ndarray) -> None:
         """Append one sample whose stamp is after the newest (the caller checks)."""
         if self._end == len(self._stamps):  # as in ``insert``: the live block moves to the front,
@@ -220,13 +231,14 @@ class PoseBuffer:
         kinematics_window_s: float = 0.1,
         max_frames: int = 1000,
         max_lead_s: float = 1.0,
+        jump_distance_m: float = 1.0,
     ):
         checks = {
             "max_duration_s": (max_duration_s, 0.0), "max_count": (max_count, 2),
             "max_extrapolation_s": (max_extrapolation_s, 0.0), "max_age_s": (max_age_s, 0.0),
             "quaternion_tolerance": (quaternion_tolerance, _UNIT_SILENT),
             "kinematics_window_s": (kinematics_window_s, 0.0), "max_frames": (max_frames, 1),
-            "max_lead_s": (max_lead_s, 0.0),
+            "max_lead_s": (max_lead_s, 0.0), "jump_distance_m": (jump_distance_m, 0.0),
         }
         for name, (value, low) in checks.items():
             whole = name in ("max_count", "max_frames")
@@ -245,11 +257,13 @@ class PoseBuffer:
         self.kinematics_window_s = float(kinematics_window_s)
         self.max_frames = int(max_frames)
         self.max_lead_s = float(max_lead_s)
+        self.jump_distance_m = float(jump_distance_m)
         self.rejected: Counter[str] = Counter()
         self.adjusted: Counter[str] = Counter()
         self._parent: dict[str, str] = {}
         self._static: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._dynamic: dict[str, _Series] = {}
+        self._unconfirmed: dict[str, tuple[float, list[float], list[float]]] = {}  # a jump's first sample, by child
 
     # ------------------------------------------------------------------ input
 
@@ -306,7 +320,10 @@ class PoseBuffer:
         elif stamp_s < series.stamps[-1] - self.max_duration_s:
             return self._reject("too_old", parent, child, f"stamp {stamp_s} is more than max_duration_s "
                                 f"({self.max_duration_s} s) behind the newest, {series.stamps[-1]}")
-        outcome = series.insert(stamp_s, position, [v / norm for v in rotation])
+        rotation = [v / norm for v in rotation]
+        if self._held_as_jump(child, series, stamp_s, position, rotation):
+            return None
+        outcome = series.insert(stamp_s, position, rotation)
         if outcome == "inserted":
             self.adjusted["out_of_order"] += 1
         elif outcome == "replaced":
@@ -334,19 +351,27 @@ class PoseBuffer:
             units = rotations / norms[:, None]
         stamp_list, good_list = stamps.tolist(), good.tolist()
         rows: dict[str, list[int]] = {}
+        previous = []  # each row's child's previous row (itself for the first)
         for i, child in enumerate(children):
-            rows.setdefault(child, []).append(i)
+            index = rows.setdefault(child, [])
+            previous.append(index[-1] if index else i)
+            index.append(i)
+        distance = np.linalg.norm(translations - translations[previous], axis=1)
+        jumped = ((distance > self.jump_distance_m)
+                  & (distance > MAX_FRAME_SPEED * (stamps - stamps[previous]))).tolist()
         stored, refusals, slow = 0, [], []
         for child, index in rows.items():
             series = self._dynamic.get(child)
             parent = parents[index[0]]
-            if series is None or self._parent.get(child) != parent or child in self._static:
+            if (series is None or self._parent.get(child) != parent or child in self._static
+                    or child in self._unconfirmed):
                 slow.extend(index)
                 continue
             block = [stamp_list[i] for i in index]  # Python scalars: cheaper than numpy for a few rows
-            if (not all(good_list[i] and parents[i] == parent for i in index) or block[0] <= series.newest
-                    or any(b <= a for a, b in zip(block, block[1:]))):
-                slow.extend(index)  # refused, out of order or duplicated: one by one, counted there
+            if (not all(good_list[i] and parents[i] == parent and not jumped[i] for i in index)
+                    or block[0] <= series.newest or any(b <= a for a, b in zip(block, block[1:]))
+                    or math.dist(translations[index[0]], series.translations[-1]) > self.jump_distance_m):
+                slow.extend(index)  # refused, out of order, duplicated or jumping: one by one, counted there
                 continue
             for i, stamp in zip(index, block):
                 series.append(stamp, translations[i], units[i])
@@ -360,6 +385,27 @@ class PoseBuffer:
             else:
                 refusals.append(refusal)
         return stored, refusals
+
+    def _held_as_jump(self, child: str, series: _Series, stamp_s: float, position: list[float],
+                      rotation: list[float]) -> bool:
+        """Settle the child's unconfirmed jump with this sample (confirmed, or dropped as an outlier);
+        True when this sample is itself a jump, held until the next one."""
+        held = self._unconfirmed.get(child)
+        if held is not None and stamp_s > held[0]:
+            del self._unconfirmed[child]
+            if math.dist(position, held[1]) <= self.jump_distance_m:
+                series.clear()  # the place before the jump is another: no interpolation or kinematics across it
+                series.insert(*held)
+                self.adjusted["jump_confirmed"] += 1
+                return False
+            self.rejected["root_outlier"] += 1
+        if len(series) == 0 or stamp_s <= series.newest:
+            return False
+        distance = math.dist(position, series.translations[-1])
+        if distance > self.jump_distance_m and distance > MAX_FRAME_SPEED * (stamp_s - series.newest):
+            self._unconfirmed[child] = (stamp_s, position, rotation)
+            return True
+        return False
 
     def _reject(self, reason: str, parent, child, why: str) -> str:
         self.rejected[reason] += 1
@@ -375,6 +421,7 @@ class PoseBuffer:
         return []
 
     def _forget(self, child: str) -> None:
+        self._unconfirmed.pop(child, None)
         self._static.pop(child, None)
         self._dynamic.pop(child, None)
         self._parent.pop(child, None)

@@ -81,7 +81,7 @@ def run(args) -> int:
             executor.spin_once(timeout_sec=0.05)
             now = time.monotonic()
             if running_since is None:
-                if node.loop.status == Status.RUNNING:
+                if node.loop.status in (Status.RUNNING, Status.BEHIND):  # dressed
                     running_since = now
                     _progress(f"demo: dressed in {now - start:.1f} s, walking for {args.duration:g} s")
                 elif now - start > 60.0:

@@ -142,7 +142,7 @@ class Replay:
         if pending is None:
             raise BagError(f"{str(self.bag)!r}: its /tf and /tf_static topics hold no message")
         start_ns = pending[0]
-        frames = simulated = penetration_frames = 0
+        frames = simulated = 0
         max_penetration = 0.0
         tic = time.perf_counter()
         try:
@@ -161,7 +161,7 @@ class Replay:
                 simulated += 1
                 max_penetration = max(max_penetration, result.penetration_m)
                 payload = frame_payload(self.loop.character, result.pose)
-                stamp = seconds_to_stamp(result.pose_time_s)
+                stamp = seconds_to_stamp(result.time_s)
                 publish_tic = time.perf_counter()
                 if self.markers is not None:
                     markers = frame_markers(payload, v["marker_namespace"], v["fixed_frame"], stamp,

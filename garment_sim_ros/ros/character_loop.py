@@ -10,9 +10,16 @@ module decides what happens:
    ``DressedCharacter`` and dress it at ``T``. A skeleton that cannot be mapped is logged with the
    missing roles and retried only when the tree changes; the loop keeps waiting.
 2. Running: sample the skeleton and root motion at ``T`` and step every garment from the last
-   frame. Stale or missing skeleton data (``PoseBuffer`` statuses) or a time that does not move
-   forward skip the frame: nothing is simulated, the last good state stays, the skip is counted
-   and logged (throttled). After a pause longer than ``RESUME_GAP_S`` (the skeleton stopped, or
+   frame. Stamps are the truth: the buffer extrapolates at most ``max_extrapolation`` past its
+   newest data, so a frame whose ``T`` is further ahead is simulated to that pose's time instead
+   (the result's ``time_s``, the stamp the node publishes), and held when that is no later than the
+   last frame (``no_new_pose``); while the skeleton is older than ``max_extrapolation`` at the clock
+   the status is ``BEHIND``. A ``T`` not after the last frame's (``T_next = D_last + now`` goes back
+   after a slow frame) is folded into the next frame, counted (``folded_into_next``), not logged.
+   Stale or missing skeleton data (``PoseBuffer`` statuses) hold: nothing is simulated, the last
+   good state stays, the hold is counted and logged (throttled; not the first stale frame when the
+   data was fresh at the last one: our own compute, e.g. dressing, let it age). After a pause longer
+   than ``RESUME_GAP_S`` (the skeleton stopped, or
    the clock jumped back more than ``CLOCK_JUMP_BACK_S``, a looped bag) the garments are dressed
    again at the new pose instead of being dragged across the gap in one frame. Dressing takes a
    while (about a second of simulation, more on a busy machine) and a shorter hold leaves a gap
@@ -27,12 +34,15 @@ module decides what happens:
    is back (``clock_jumped_back``); a skeleton replaced mid-run (its frames stop while frames not
    in it arrive under the prefix: another clip with other names) forgets the stopped frames and
    maps, fits and dresses the new one (``skeleton_changed``); a root jump longer than the
-   ``teleport_distance`` parameter within a frame, faster than ``MAX_ROOT_SPEED`` (a clip looping
-   back, not a body that walked on while the loop lagged) forgets the motion before the jump and
-   dresses the garments again at the new pose instead of dragging them along (``teleported``); a
+   ``teleport_distance`` parameter within a frame, faster than ``MAX_FRAME_SPEED`` (a clip looping
+   back, confirmed by the buffer: the next sample stayed there, the motion before it dropped; a lone
+   outlier never reaches the loop) dresses the garments again at the new pose instead of dragging
+   them along (``teleported``); a body that walked on while the data or the loop stalled is slower
+   than that, and lags; a
    pose whose hips coincide horizontally has no heading and holds (``root_motion_degenerate``); a
    node clock that has not started (``use_sim_time`` without /clock) waits (``no_clock``, from
-   ``clock_not_started``).
+   ``clock_not_started``). Several skeletons under the fixed frame that ``frame_prefix`` does not
+   tell apart: the largest is dressed, and a warning names them all and the one picked.
 
 Changing garments or resolution (``set_garments``) re-dresses at the next frame; solver
 parameters (``set_params``) apply from the next step on.
@@ -40,6 +50,7 @@ parameters (``set_params``) apply from the next step on.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections import Counter
@@ -51,7 +62,7 @@ import numpy as np
 from ..body.fitting import fit_body
 from ..body.overrides import load_body_overrides
 from ..body.joint_map import auto_joint_map, load_joint_map
-from ..body.pose_buffer import PoseBuffer, SampleStatus
+from ..body.pose_buffer import MAX_FRAME_SPEED, PoseBuffer, SampleStatus
 from ..body.canonical import canonical_pose, local_transforms
 from ..body.skeleton import Skeleton, SkeletonPose
 from ..cloth.solver import FrameReport
@@ -63,7 +74,7 @@ MAX_CATCH_UP_FRAMES = 25  # a frame covers a gap in at most this many full frame
 CATCH_UP_WALL_S = 0.1  # ...and spends at most about this long on them (a busy machine lags instead)
 CLOCK_JUMP_BACK_S = 1.0  # a clock this far behind the last frame restarts (sim time reset, looped bag)
 LOG_PERIOD_S = 5.0  # the same warning at most this often
-MAX_ROOT_SPEED = 12.0  # m/s, faster than any sprinter: a root faster than this within a frame teleported
+BEHIND_WARNING_S = 1.0  # running behind the clock this long is logged (the status says so at once)
 # Bones seen on /tf must match those BONE_CHECK_S earlier within this tolerance (m + fraction) before the
 # body is fitted: a rigid skeleton's bones do not change, a retargeting or scaling one does.
 BONE_CHECK_S = 0.1
@@ -77,11 +88,13 @@ class Status:
     UNMAPPABLE = "skeleton cannot be mapped"
     RUNNING = "running"
     HOLDING = "holding (skeleton stale or missing)"
+    BEHIND = "running behind the clock (skeleton older than max_extrapolation)"
 
 
 @dataclass
 class FrameResult:
-    """A simulated frame: the garments are at ``time_s``."""
+    """A simulated frame: the garments are at ``time_s``, the time of the skeleton pose they were
+    simulated on (the frame time, or the newest pose's when the skeleton is older than max_extrapolation)."""
 
     time_s: float
     pose: SkeletonPose
@@ -90,9 +103,6 @@ class FrameResult:
     step_s: float  # wall time of stepping (or dressing), s
     penetration_m: float  # deepest garment point inside a volume after the frame, m
     dressed: bool  # this frame put the garments on (first skeleton, new garments, after a gap)
-    # The time the skeleton pose is for, s: ``time_s``, or earlier when the buffer held its extrapolation
-    # (its newest data more than max_extrapolation behind): the stamp to publish under, never newer than the pose.
-    pose_time_s: float = math.nan
 
 
 class Throttle:
@@ -122,6 +132,8 @@ class CharacterLoop:
         self.on_event = on_event
         self._last_event = ""
         self.params = params
+        # one rule for a jump: the buffer confirms it, the loop re-dresses
+        buffer.jump_distance_m = params.teleport_distance
         self.garments = list(garments)
         self.resolution = float(resolution)
         self.frame_prefix = frame_prefix
@@ -142,10 +154,15 @@ class CharacterLoop:
         self._refused: Skeleton | None = None  # a tree that could not be mapped (retried when it changes)
         self._catching_up = False  # after dressing or a hold: the next frame may span a gap
         self._just_dressed = False  # the gap since the last frame is the dressing's own compute time
+        self._last_now_s: float | None = None  # the clock at the last frame
+        self._behind_since: float | None = None  # monotonic time since the skeleton is behind the clock
+        self._behind_detail = ""
+        self._ambiguous: list[str] = []  # the skeletons last named as matching together
 
     # -------------------------------------------------------------------------- configuration
     def set_params(self, params: SolverParams) -> None:
         self.params = params
+        self.buffer.jump_distance_m = params.teleport_distance
         if self.character is not None:
             self.character.set_params(params)
 
@@ -167,8 +184,13 @@ class CharacterLoop:
         return self.buffer.sample(time_s, self.skeleton).age_s
 
     # -------------------------------------------------------------------------- the frame
-    def frame(self, time_s: float) -> FrameResult | None:
-        """Advance the garments to ``time_s``; None when nothing new was simulated."""
+    def frame(self, time_s: float, now_s: float | None = None) -> FrameResult | None:
+        """Advance the garments to ``time_s``, or to the newest pose the skeleton has when that is older
+        (stamps are the truth: never simulated on a pose the buffer does not have); None when nothing
+        new was simulated. ``now_s``, the clock when the frame was asked (default ``time_s``; the node's
+        ``time_s`` leads it by the last frame's compute): staleness is judged there."""
+        now_s = time_s if now_s is None else now_s
+        last_now_s, self._last_now_s = self._last_now_s, now_s
         if self.character is None:
             return self._dress_when_ready(time_s)
         if time_s <= self.last_time:
@@ -177,16 +199,31 @@ class CharacterLoop:
                 return self._redress(time_s, "clock_jumped_back", f"the clock jumped back from "
                                      f"{self.last_time:.3f} s to {time_s:.3f} s; forgot the {dropped} moving "
                                      "frames' history, dressing again")
-            # T_next = D_last + now goes back a little after a slow frame: normal, counted, logged quietly
-            return self._skip("time_not_advancing", f"frame time {time_s:.6f} s is not after the last "
-                              f"frame's {self.last_time:.6f} s", "info")
+            # T_next = D_last + now goes back a little after a slow frame: this frame's time is folded
+            # into the next one's (nothing is lost: the next frame starts from last_time); counted only
+            self.counts["folded_into_next"] += 1
+            return None
         sample = self.buffer.sample(time_s, self.skeleton)
+        lead_s = time_s - now_s
+        if sample.status == SampleStatus.STALE and sample.age_s - lead_s <= self.buffer.max_age_s:
+            sample = dataclasses.replace(sample, status=SampleStatus.EXTRAPOLATED)  # stale only by our lead
         if sample.status not in _USABLE:
             replaced = self._replaced_frames(time_s)
             if replaced:
                 return replaced
-            return self._skip(sample.status.value, f"skeleton {sample.status.value} at {time_s:.3f} s: "
-                              f"{sample.detail}; holding the last frame")
+            # the data was fresh at the last frame: it went stale during our own compute (dressing blocks
+            # a player in the same process); held and counted, said when it lasts to the next frame
+            quiet = (sample.status == SampleStatus.STALE and last_now_s is not None
+                     and sample.age_s - (time_s - last_now_s) <= self.buffer.max_age_s)
+            return self._hold(sample.status.value, f"skeleton {sample.status.value} at {time_s:.3f} s: "
+                              f"{sample.detail}; holding the last frame", warn=not quiet)
+        pose_time = self._pose_time(time_s, sample.age_s)
+        if pose_time <= self.last_time:  # no pose newer than the garments': held, not simulated past the data
+            self.counts["no_new_pose"] += 1
+            return None
+        self._note_behind(sample.age_s - lead_s)
+        if pose_time < time_s:
+            time_s, sample = pose_time, self.buffer.sample(pose_time, self.skeleton)
         if time_s - self.last_time > RESUME_GAP_S and not self._just_dressed:
             return self._redress(time_s, "resumed_after_gap", f"{time_s - self.last_time:.2f} s since the last "
                                  "frame; dressing again at the current pose")
@@ -209,37 +246,54 @@ class CharacterLoop:
             if motion.status == SampleStatus.DEGENERATE and not last:
                 continue  # no heading inside the gap (a pose lying on its side): the next piece spans it
             if pose is None or motion.position is None:
-                return self._skip("root_motion_" + motion.status.value, f"skeleton at {t:.3f} s: {motion.detail}")
+                return self._hold("root_motion_" + motion.status.value, f"skeleton at {t:.3f} s: {motion.detail}")
             jump = float(np.linalg.norm(motion.position - self.character.root.position))
-            # a jump in the data, not the way the body walked while the loop lagged (a slow dressing)
-            if jump > self.params.teleport_distance and jump > MAX_ROOT_SPEED * (t - self.last_time):
-                # the history before the jump would put thousands of m/s^2 into the root's kinematics
-                self.buffer.forget_dynamic()
+            # The buffer confirmed the jump (the next sample stayed there) and dropped the motion before it. A
+            # body that walked on while the data or the loop stalled moves slower than MAX_FRAME_SPEED: lag.
+            if jump > self.params.teleport_distance and jump > MAX_FRAME_SPEED * (t - self.last_time):
                 return self._redress(time_s, "teleported", f"the root jumped {jump:.2f} m by {t:.3f} s (more than "
-                                     f"teleport_distance {self.params.teleport_distance} m); forgot the motion "
-                                     "before the jump, dressing again at the new pose")
+                                     f"teleport_distance {self.params.teleport_distance} m, confirmed by the next "
+                                     "sample); dressing again at the new pose")
             reports = self.character.step(pose, motion, t)
             self.last_time = t
             if last:
                 break
         step_s = time.perf_counter() - tic
         self._running(time_s)
-        return FrameResult(time_s, sample.pose, reports, frame_s, step_s, self.character.max_penetration(), False,
-                           self._pose_time(time_s, sample.age_s))
+        return FrameResult(time_s, sample.pose, reports, frame_s, step_s, self.character.max_penetration(), False)
+
+    def _note_behind(self, age_s: float) -> None:
+        """Running on a pose older than max_extrapolation at the clock: the status says so (diagnostics
+        WARN), and the log once it lasted ``BEHIND_WARNING_S``."""
+        behind = age_s > self.buffer.max_extrapolation_s
+        if not behind:
+            self._behind_since = None
+            return
+        if self._behind_since is None:
+            self._behind_since = time.monotonic()
+        self.counts["behind_skeleton"] += 1
+        message = (f"the skeleton's newest pose is {age_s:.3f} s old at the clock (more than max_extrapolation "
+                   f"{self.buffer.max_extrapolation_s} s): the garments follow it, markers carry its time")
+        if time.monotonic() - self._behind_since > BEHIND_WARNING_S:
+            self._log("warning", "behind", message)
+        self._behind_detail = message
 
     def _running(self, time_s: float) -> None:
-        if self.status != Status.RUNNING:
+        if self.status not in (Status.RUNNING, Status.BEHIND):
             self._log("info", "status", f"simulating {', '.join(self.garments)} on the skeleton under "
                                         f"{self.skeleton.names[0]!r}")
         self.status, self.detail = Status.RUNNING, ""
+        if self._behind_since is not None:
+            self.status, self.detail = Status.BEHIND, self._behind_detail
         self.last_time = time_s
 
-    def _skip(self, reason: str, message: str, level: str = "warning") -> None:
+    def _hold(self, reason: str, message: str, warn: bool = True) -> None:
+        """Nothing simulated: the garments keep their last state (the node publishes it again)."""
         self.counts[reason] += 1
-        if level == "warning":
-            self.status, self.detail = Status.HOLDING, message
-            self._catching_up = True  # when the skeleton is back, follow it across the gap in full frames
-        self._log(level, reason, message)
+        self.status, self.detail = Status.HOLDING, message
+        self._catching_up = True  # when the skeleton is back, follow it across the gap in full frames
+        if warn:
+            self._log("warning", reason, message)
         return None
 
     def _redress(self, time_s: float, reason: str, message: str) -> FrameResult | None:
@@ -285,7 +339,18 @@ class CharacterLoop:
         if not roots:
             return None
         # Several children of the fixed frame: the one carrying the largest tree is the skeleton.
-        return max(sorted(roots), key=lambda f: len(self.buffer.skeleton_from_tree(f).names))
+        sizes = {f: len(self.buffer.skeleton_from_tree(f).names) for f in sorted(roots)}
+        picked = max(sizes, key=sizes.get)
+        # Another skeleton, not a stray frame (a camera): at least half as many frames as the largest.
+        skeletons = sorted(f for f, size in sizes.items() if size >= sizes[picked] / 2)
+        if len(skeletons) > 1 and skeletons != self._ambiguous:
+            self._ambiguous = skeletons  # said once per set
+            self.counts["several_skeletons"] += 1
+            self._log("warning", "several_skeletons", f"{len(skeletons)} skeletons under {fixed!r} match "
+                      f"frame_prefix {self.frame_prefix!r}: "
+                      + ", ".join(f"{f!r} ({sizes[f]} frames)" for f in skeletons)
+                      + f"; dressing {picked!r}. Set frame_prefix (or root_frame) to choose")
+        return picked
 
     def _wait(self, status: str, detail: str, level: str = "info") -> None:
         self.status, self.detail = status, detail
@@ -309,6 +374,7 @@ class CharacterLoop:
         if sample.status not in _USABLE:
             return self._wait(Status.WAITING, f"waiting for the skeleton under {root!r}: {sample.status.value}: "
                                               f"{sample.detail}")
+        time_s = self._pose_time(time_s, sample.age_s)  # dressed on the newest pose the skeleton has
         reason, unsettled = self._bones_settled(skeleton, time_s, sample.pose)
         if unsettled:
             if reason:
@@ -332,8 +398,7 @@ class CharacterLoop:
         self._log("info", "dressed", f"dressed {', '.join(self.garments)} ({self.mass_points} mass points) on "
                                      f"{len(skeleton.names)} frames under {root!r}")
         self._running(time_s)
-        return FrameResult(time_s, sample.pose, [], 0.0, time.perf_counter() - tic, character.max_penetration(), True,
-                           self._pose_time(time_s, sample.age_s))
+        return FrameResult(time_s, sample.pose, [], 0.0, time.perf_counter() - tic, character.max_penetration(), True)
 
     def _pose_time(self, time_s: float, age_s: float) -> float:
         """When the sampled pose is for: the buffer extrapolates at most max_extrapolation_s past its data."""

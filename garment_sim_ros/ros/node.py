@@ -7,10 +7,12 @@ Wires topics, parameters and timers to the ROS-free modules:
   the start of every frame, decoded by ``tf_input.TFDecoder`` (numpy), so 100+ joints at 120 Hz and
   more cost a small share of a core and the frame always samples the newest data (issue 17).
 - a timer at ``rate_hz``: ``T_next = D_last + now`` (the node's clock, so ``use_sim_time`` works;
-  ``D_last`` the last tick's compute time) -> ``CharacterLoop.frame(T_next)`` -> the garments (and
-  body volumes) on ``~/markers`` as a serialized ``visualization_msgs/MarkerArray`` stamped
-  ``T_next`` in ``fixed_frame``, and to Rerun when ``rerun_sink`` is not off (with the loop's
-  events, guard recoveries and parameter changes as text entries).
+  ``D_last`` the last tick's compute time) -> ``CharacterLoop.frame(T_next, now)`` -> the garments (and
+  body volumes) on ``~/markers`` as a serialized ``visualization_msgs/MarkerArray`` in ``fixed_frame``
+  stamped with the time of the pose they were simulated on (``FrameResult.time_s``), and to Rerun when
+  ``rerun_sink`` is not off (with the loop's events, guard recoveries and parameter changes as text
+  entries). A tick that simulates nothing (holding, folded, no newer pose) publishes the last frame's
+  markers again: with the topic's transient-local QoS, a late RViz sees the garment.
 - ``/diagnostics`` (``diagnostic_msgs/DiagnosticArray``) every ``diagnostics_period``: fps, substeps,
   lag, stage times, penetration, the garments' quality (``bones_through``, ``bones_through_frames``,
   ``legs_off``, structural and shear stretch p99 and max: ``ros.frame_stats``), skeleton age,
@@ -26,20 +28,18 @@ Wires topics, parameters and timers to the ROS-free modules:
 
 from __future__ import annotations
 
-import array
 import sys
 import time
 import traceback
 from collections import Counter
-from pathlib import Path
 from typing import Any, Sequence
 
-import numpy as np
 import rclpy
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from diagnostic_msgs.msg import DiagnosticArray
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException
+from rclpy.exceptions import (InvalidParameterTypeException, InvalidParameterValueException,
+                              ParameterNotDeclaredException)
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -50,17 +50,19 @@ from visualization_msgs.msg import MarkerArray
 
 from ..body.pose_buffer import PoseBuffer
 from ..markers import frame_markers
-from ..params import Param, ParameterError, SolverParams
+from ..params import ParameterError, SolverParams
 from ..rerun_log import RerunLogger, frame_payload
-from .character_loop import CharacterLoop, FrameResult, Status, Throttle
+from .character_loop import CharacterLoop, FrameResult, Throttle
+from .diagnostics import diagnostic_status, level_and_message, status_values
 from .frame_stats import FrameStats
 from .marker_cdr import serialize_marker_array
-from .params_file import FileWatch, ParamsFileError, read_node_parameters
+from .params_watch import ParamsFileWatch
+from .ros_parameters import descriptor, parameter_type, params_file_from_args, plain, ros_value
 from .settings import ALL_PARAMETERS, PARAMETER_ROWS, SOLVER_PARAMETER_NAMES, is_read_only
+from .spinning import spin_until_shutdown
 from .tf_input import IngestResult, TFDecoder, TransformBatch, ingest, ingest_batch, seconds_to_stamp
 
 NODE_NAME = "garment_sim_node"
-LAG_WARNING_FRACTION = 0.1  # diagnostics turn WARN when the garments fall behind by this share of the time
 # /tf: reliable and volatile as tf2's listeners, so every publisher that works with tf2 matches. Keep
 # last 1000 messages: the node drains the whole queue every frame (``_absorb_tf``), so the depth is
 # only the slack for a long frame (dressing takes up to a second): 4 characters at 240 Hz fill 1000 in
@@ -68,58 +70,18 @@ LAG_WARNING_FRACTION = 0.1  # diagnostics turn WARN when the garments fall behin
 _TF_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 _TF_STATIC_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
+# ~/markers: transient local, keep last 1: a late RViz gets the garment at once (volatile subscribers,
+# RViz's default, still match); the node publishes at rate_hz while holding too, the held garment.
+_MARKERS_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 _REDRESS_KEYS = ("garments", "resolution")
 _CLEAR_KEYS = ("garments", "resolution", "marker_namespace", "publish_volumes")
 
 
-def _parameter_type(row: Param) -> Parameter.Type:
-    default = row.default
-    if isinstance(default, bool):
-        return Parameter.Type.BOOL
-    if isinstance(default, list):
-        return Parameter.Type.STRING_ARRAY
-    if isinstance(default, tuple):
-        return Parameter.Type.DOUBLE_ARRAY
-    if isinstance(default, int):
-        return Parameter.Type.INTEGER
-    if isinstance(default, float):
-        return Parameter.Type.DOUBLE
-    return Parameter.Type.STRING
+class UndeclaredParameters(ParameterNotDeclaredException):
+    """rclpy's refusal of undeclared parameters (the parameter services answer with it), naming them."""
 
-
-def _ros_value(value: Any) -> Any:
-    """A validated value as rclpy stores it (tuples as lists)."""
-    return list(value) if isinstance(value, tuple) else value
-
-
-def _plain(value: Any) -> Any:
-    """A parameter value as Python scalars and lists (rclpy gives arrays as ``array.array``)."""
-    if isinstance(value, (array.array, np.ndarray)):
-        return value.tolist()
-    return value
-
-
-def descriptor(row: Param) -> ParameterDescriptor:
-    """The ``ParameterDescriptor`` of a table row: description with unit and allowed values, range, read-only."""
-    unit = f" [{row.unit}]" if row.unit and row.unit != "1" else ""
-    result = ParameterDescriptor(
-        name=row.name, type=_parameter_type(row).value, description=f"{row.description}{unit}",
-        additional_constraints=f"allowed: {row.allowed()}", read_only=bool(getattr(row, "read_only", False)))
-    kind = _parameter_type(row)
-    if row.low is not None and row.high is not None:
-        if kind == Parameter.Type.DOUBLE:
-            result.floating_point_range = [FloatingPointRange(from_value=float(row.low), to_value=float(row.high),
-                                                              step=0.0)]
-        elif kind == Parameter.Type.INTEGER:
-            result.integer_range = [IntegerRange(from_value=int(row.low), to_value=int(row.high), step=1)]
-    return result
-
-
-def params_file_from_args(args: Sequence[str]) -> str:
-    """The last ``--params-file PATH`` among ROS arguments, or ''."""
-    args = list(args)
-    paths = [args[i + 1] for i, arg in enumerate(args[:-1]) if arg == "--params-file"]
-    return paths[-1] if paths else ""
+    def __init__(self, message: str):
+        Exception.__init__(self, message)
 
 
 class GarmentSimNode(Node):
@@ -128,8 +90,8 @@ class GarmentSimNode(Node):
     def __init__(self, node_name: str = NODE_NAME, *, params_file_hint: str = "", **kwargs):
         super().__init__(node_name, **kwargs)
         self._throttle = Throttle()
-        self._params_file_hint = params_file_hint
-        self.values: dict[str, Any] = self._declare_parameters()
+        self._refusals: dict[str, str] = {}  # parameter -> the tables' reason, from _prepare for _check
+        self.values: dict[str, Any] = self._declare_parameters(kwargs.get("parameter_overrides") or ())
         self.solver_params = SolverParams(**{name: self.values[name] for name in SOLVER_PARAMETER_NAMES})
         v = self.values
         self.buffer = PoseBuffer(v["fixed_frame"], max_age_s=v["max_skeleton_age"],
@@ -143,13 +105,12 @@ class GarmentSimNode(Node):
         self.frame_errors = 0
         self._frame_errors_reported = 0
         self.last_diagnostics: dict[str, str] = {}
-        self.params_file_errors = 0
-        self.params_file_message = ""
         self._pending: dict[str, Any] = {}
         self._clear_markers = False
         self._last_compute_s = 0.0
         self._frame_time = 0.0  # the frame being computed (T_next), s: the time of the loop's events
-        self._watch: FileWatch | None = None
+        self._held: tuple[dict, tuple[int, int]] | None = None  # the last frame's payload and stamp
+        self._held_message = b""  # ...serialized, published again while nothing new is simulated
 
         # raw: the bytes are decoded by ``TFDecoder`` (numpy), never into Python message objects
         self._tf_decoder = TFDecoder(v["frame_prefix"])
@@ -159,72 +120,96 @@ class GarmentSimNode(Node):
         self._warned_tf_full = False
         self._tf_subscription = self.create_subscription(TFMessage, "/tf", self._on_tf, _TF_QOS, raw=True)
         self.create_subscription(TFMessage, "/tf_static", self._on_tf_static, _TF_STATIC_QOS)
-        self.marker_publisher = self.create_publisher(MarkerArray, "~/markers", 2)
+        self.marker_publisher = self.create_publisher(MarkerArray, "~/markers", _MARKERS_QOS)
         self.diagnostics_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.frame_timer = self.create_timer(1.0 / v["rate_hz"], self._on_frame_timer)  # the node's clock
         # Steady: diagnostics and the file watch go on when sim time stalls or has not started.
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.diagnostics_timer = self.create_timer(v["diagnostics_period"], self.publish_diagnostics, clock=steady)
-        self.watch_timer = self.create_timer(v["watch_period"], self.poll_params_file, clock=steady)
+        self.params_watch = ParamsFileWatch(self, params_file_hint)
+        self.watch_timer = self.create_timer(v["watch_period"], self.params_watch.poll, clock=steady)
         self.rerun = self._create_rerun_logger()
 
     # ------------------------------------------------------------------------------ parameters
-    def _declare_parameters(self) -> dict[str, Any]:
-        """Declare every table row; start-up values (--params-file, -p) are validated like runtime ones."""
-        overrides = getattr(self, "_parameter_overrides", {})
+    # rclpy's public callbacks: ``_prepare`` (pre-set, runtime sets only) checks against the tables and
+    # types the values as declared; rclpy then checks the descriptors (type, range, read-only), ``_check``
+    # (on-set, also at declaration) refuses with the table's reason, ``_accepted`` (post-set) applies.
+    # rclpy checks descriptors before on-set callbacks, and its messages lack the table's units and
+    # allowed values: a value ``_prepare`` refuses is passed on as the current one (rclpy finds nothing
+    # wrong) and ``_check`` refuses it with the table's reason.
+    def _declare_parameters(self, overrides: Sequence[Parameter]) -> dict[str, Any]:
+        """Declare every table row; start-up values (--params-file, -p) are checked by ``_check`` like
+        runtime ones: a refused one is logged and the default used."""
+        self.add_on_set_parameters_callback(self._check)
         values = {}
         for row in ALL_PARAMETERS:
-            value = row.default
-            if row.name in overrides:
-                given = _plain(overrides[row.name].value)
-                try:
-                    value = row.check(given)
-                except ParameterError as err:
-                    self.get_logger().error(f"start-up parameter refused: {err}; using the default {row.default!r}")
-            self.declare_parameter(row.name, _ros_value(value), descriptor(row), ignore_override=True)
-            values[row.name] = value
-        unknown = sorted(set(overrides) - set(PARAMETER_ROWS) - {"use_sim_time"})
+            try:
+                self.declare_parameter(row.name, ros_value(row.default), descriptor(row))
+            except (InvalidParameterTypeException, InvalidParameterValueException) as err:
+                self.get_logger().error(f"start-up parameter refused: {err}; using the default {row.default!r}")
+                self.declare_parameter(row.name, ros_value(row.default), descriptor(row), ignore_override=True)
+            values[row.name] = row.check(plain(self.get_parameter(row.name).value))
+        unknown = sorted({p.name for p in overrides} - set(PARAMETER_ROWS) - {"use_sim_time"})
         if unknown:
             self.get_logger().warning(f"unknown start-up parameter(s) {', '.join(unknown)} ignored; known: "
                                       f"{', '.join(PARAMETER_ROWS)}")
+        self.add_pre_set_parameters_callback(self._prepare)
+        self.add_post_set_parameters_callback(self._accepted)
         return values
 
-    def _validate(self, parameters: Sequence[Parameter]) -> tuple[list[Parameter], dict[str, Any]]:
-        """Parameters typed as declared, and the table values they set; ``ParameterError`` for a bad one."""
-        checked, changes = [], {}
+    def _prepare(self, parameters: list[Parameter]) -> list[Parameter]:
+        """Pre-set: each parameter typed as declared (an integer for a real number is that number), or,
+        refused by the tables, its current value with the reason kept for ``_check``."""
+        self._refusals = {}
+        undeclared = [p.name for p in parameters if not self.has_parameter(p.name)]
+        if undeclared:  # rclpy Jazzy's own refusal names none of them (it lists a consumed generator)
+            reason = f"undeclared parameter(s) {', '.join(undeclared)}; known: {', '.join(PARAMETER_ROWS)}"
+            self.get_logger().warning(f"parameter set refused: {reason}")
+            raise UndeclaredParameters(reason)
+        prepared, changes = [], {}
         for parameter in parameters:
             name = parameter.name
             if name not in PARAMETER_ROWS:
-                checked.append(parameter)  # use_sim_time, or undeclared: rclpy's own rules apply
+                prepared.append(parameter)  # use_sim_time: rclpy's own rules apply
                 continue
-            if parameter.type_ == Parameter.Type.NOT_SET:
-                raise ParameterError(f"{name}: cannot be unset; allowed: {PARAMETER_ROWS[name].allowed()}")
-            value = PARAMETER_ROWS[name].check(_plain(parameter.value))
-            if is_read_only(name):
-                raise ParameterError(f"{name}: read-only, set at start (--params-file or -p); running with "
-                                     f"{self.values[name]!r}, got {value!r}")
-            checked.append(Parameter(name, _parameter_type(PARAMETER_ROWS[name]), _ros_value(value)))
+            try:
+                if parameter.type_ == Parameter.Type.NOT_SET:
+                    raise ParameterError(f"{name}: cannot be unset; allowed: {PARAMETER_ROWS[name].allowed()}")
+                value = PARAMETER_ROWS[name].check(plain(parameter.value))
+                if is_read_only(name):
+                    raise ParameterError(f"{name}: read-only, set at start (--params-file or -p); running with "
+                                         f"{self.values[name]!r}, got {value!r}")
+            except ParameterError as err:
+                self._refusals[name] = str(err)
+                prepared.append(self.get_parameter(name))
+                continue
+            prepared.append(Parameter(name, parameter_type(PARAMETER_ROWS[name]), ros_value(value)))
             changes[name] = value
         solver_changes = {k: v for k, v in changes.items() if k in SOLVER_PARAMETER_NAMES}
-        if solver_changes:
-            self.solver_params.replace(**solver_changes)
-        return checked, changes
-
-    def set_parameters_atomically(self, parameter_list: list[Parameter]) -> SetParametersResult:
-        """rclpy's, after validating against the parameter tables (the parameter services call this)."""
         try:
-            checked, changes = self._validate(parameter_list)
+            self.solver_params.replace(**solver_changes)  # the combination must be valid too
         except ParameterError as err:
-            return SetParametersResult(successful=False, reason=str(err))
-        result = super().set_parameters_atomically(checked)
-        if result.successful:
-            self._accept(changes)
-        return result
+            self._refusals.update({name: str(err) for name in solver_changes})
+        for reason in dict.fromkeys(self._refusals.values()):  # every refused set said once
+            self.get_logger().warning(f"parameter set refused: {reason}")
+        return prepared
 
-    def set_parameters(self, parameter_list: list[Parameter]) -> list[SetParametersResult]:
-        return [self.set_parameters_atomically([parameter]) for parameter in parameter_list]
+    def _check(self, parameters: list[Parameter]) -> SetParametersResult:
+        """On-set (runtime sets after ``_prepare``, and declarations): the table's refusal, if any."""
+        for parameter in parameters:
+            reason = self._refusals.get(parameter.name)
+            if reason is None and parameter.name in PARAMETER_ROWS:
+                try:
+                    PARAMETER_ROWS[parameter.name].check(plain(parameter.value))
+                except ParameterError as err:
+                    reason = str(err)
+            if reason is not None:
+                return SetParametersResult(successful=False, reason=reason)
+        return SetParametersResult(successful=True)
 
-    def _accept(self, changes: dict[str, Any]) -> None:
+    def _accepted(self, parameters: list[Parameter]) -> None:
+        """Post-set: the new values take effect at the next frame (timers at once)."""
+        changes = {p.name: PARAMETER_ROWS[p.name].check(plain(p.value)) for p in parameters if p.name in PARAMETER_ROWS}
         self.values.update(changes)
         self._pending.update(changes)
         if "rate_hz" in changes:
@@ -249,77 +234,9 @@ class GarmentSimNode(Node):
         if self.rerun is not None:
             self.rerun.every_n = self.values["rerun_every_n"]
             self.rerun.log_event(self._frame_time, "info", "parameters",
-                                 ", ".join(f"{name}={_plain(value)!r}" for name, value in sorted(changes.items())))
+                                 ", ".join(f"{name}={plain(value)!r}" for name, value in sorted(changes.items())))
         self.buffer.max_age_s = self.values["max_skeleton_age"]
         self.buffer.max_extrapolation_s = self.values["max_extrapolation"]
-
-    # ------------------------------------------------------------------------------ params file
-    def params_file_path(self) -> str:
-        return self.values["params_file"] or self._params_file_hint
-
-    def poll_params_file(self) -> None:
-        """Timer: re-apply the params file when its modification time or size changed."""
-        path = self.params_file_path()
-        if not self.values["watch_params_file"] or not path:
-            if self.values["watch_params_file"]:
-                self._log("warning", "params_file", "watch_params_file is on but params_file is empty and no "
-                                                    "--params-file was given: nothing to watch")
-            self._watch = None
-            return
-        if self._watch is None or self._watch.path != Path(path):
-            self._watch = FileWatch(path)
-            if path == self._params_file_hint:
-                self._watch.changed()  # loaded at start by --params-file (under any -p): apply later edits only
-        if self._watch.changed():
-            self.apply_params_file(path)
-
-    def apply_params_file(self, path: str) -> bool:
-        """Apply the node's section of ``path``: all of it, or (any bad key or value) none of it."""
-        try:
-            given = read_node_parameters(path, self.get_fully_qualified_name())
-        except ParamsFileError as err:
-            return self._refuse_params_file([str(err)])
-        if not given:
-            self._log("warning", "params_file_section", f"{path}: no ros__parameters section matches this node "
-                      f"({self.get_fully_qualified_name()}); name it so, or /**/{self.get_name()} for every namespace")
-        problems, changes = [], []
-        for name, raw in given.items():
-            raw = _plain(raw)
-            if name not in PARAMETER_ROWS:
-                if self.has_parameter(name):
-                    if self.get_parameter(name).value != raw:
-                        changes.append(Parameter(name, value=raw))
-                else:
-                    problems.append(f"{path}: {name}: unknown parameter; known: {', '.join(PARAMETER_ROWS)}")
-                continue
-            try:
-                value = PARAMETER_ROWS[name].check(raw)
-            except ParameterError as err:
-                problems.append(f"{path}: {err}")
-                continue
-            if value == self.values[name]:
-                continue
-            if is_read_only(name):
-                problems.append(f"{path}: {name}: read-only, set at start; running with {self.values[name]!r}, "
-                                f"the file says {value!r} (restart the node to change it)")
-            else:
-                changes.append(Parameter(name, value=_ros_value(value)))
-        if problems:
-            return self._refuse_params_file(problems)
-        if changes:
-            result = self.set_parameters_atomically(changes)
-            if not result.successful:
-                return self._refuse_params_file([f"{path}: {result.reason}"])
-        self.params_file_message = f"{path}: applied " + (
-            ", ".join(f"{p.name}={_plain(p.value)!r}" for p in changes) if changes else "(no change)")
-        self.get_logger().info(self.params_file_message)
-        return True
-
-    def _refuse_params_file(self, problems: list[str]) -> bool:
-        self.params_file_errors += 1
-        self.params_file_message = "; ".join(problems) + "; keeping the last good configuration"
-        self.get_logger().error(self.params_file_message)
-        return False
 
     # ------------------------------------------------------------------------------ input
     def _on_tf(self, message: bytes | TFMessage) -> None:
@@ -365,7 +282,7 @@ class GarmentSimNode(Node):
                 batch = self._tf_decoder.decode(data)
             except ValueError as err:
                 self.input_counts["undecodable"] += 1
-                self._log("warning", "tf_undecodable", f"a /tf message could not be decoded (counted): {err}")
+                self.log_throttled("warning", "tf_undecodable", f"a /tf message could not be decoded (counted): {err}")
                 continue
             if len(batch.stamps) and now_s is not None:
                 lag_s = now_s - float(batch.stamps.max())  # receive time - stamp
@@ -388,7 +305,7 @@ class GarmentSimNode(Node):
         if count_empty and not (result.stored or result.other_character or result.refused):
             self.input_counts["empty_messages"] += 1  # nothing to do; counted so a silent publisher shows
         if result.refused:
-            self._log("warning", "tf_refused",
+            self.log_throttled("warning", "tf_refused",
                       f"refused /tf input (counted in diagnostics), e.g. {result.first_refusal}")
 
     # ------------------------------------------------------------------------------ the frame
@@ -398,14 +315,20 @@ class GarmentSimNode(Node):
         try:
             self._absorb_tf()  # the newest /tf first, however the executor scheduled the callbacks
             self._apply_pending()
-            self._frame_time = self._last_compute_s + self.get_clock().now().nanoseconds * 1e-9  # T_next
-            result = self.loop.frame(self._frame_time)
+            now_s = self.get_clock().now().nanoseconds * 1e-9
+            self._frame_time = self._last_compute_s + now_s  # T_next = D_last + now
+            result = self.loop.frame(self._frame_time, now_s)
             if result is not None:
                 self._publish_frame(result)
                 dressed = result.dressed
+            else:
+                self._publish_held()
         except Exception:  # a frame must never take the node down: report it and go on
+            if not self.context.ok():
+                return  # shut down (a signal) mid-frame: the publish failed, nothing to report
             self.frame_errors += 1
-            self._log("error", "frame_error", f"frame failed (counted in diagnostics):\n{traceback.format_exc()}")
+            self.log_throttled("error", "frame_error",
+                               f"frame failed (counted in diagnostics):\n{traceback.format_exc()}")
         compute_s = time.perf_counter() - tic
         self.stats.record_tick(compute_s)
         # D_last: dressing is no frame's compute time, T_next of the next frame must not jump by it
@@ -414,22 +337,44 @@ class GarmentSimNode(Node):
     def _publish_frame(self, result: FrameResult) -> None:
         tic = time.perf_counter()
         payload = frame_payload(self.loop.character, result.pose)
-        v = self.values
-        stamp = seconds_to_stamp(result.pose_time_s)  # the pose's time, never newer (issue 17)
-        markers = frame_markers(payload, v["marker_namespace"], v["fixed_frame"], stamp, v["publish_volumes"],
-                                clear=self._clear_markers or result.dressed)
-        self._clear_markers = False
-        self.marker_publisher.publish(serialize_marker_array(markers))
+        self._held = (payload, seconds_to_stamp(result.time_s))  # the time of the pose simulated on
+        self._publish_markers(clear=result.dressed)
         publish_s = time.perf_counter() - tic
         self.stats.record_frame(result.reports, result.frame_s, result.penetration_m)
         recovered = [(solver.model.name, report.recovery)
                      for solver, report in zip(self.loop.character.solvers, result.reports) if report.recovery]
         if recovered:
-            self._log("warning", "solver_recovery", "a garment step went bad (counted in diagnostics as solver_*): "
-                      + ", ".join(f"{name} {what}" for name, what in recovered))
+            self.log_throttled("warning", "solver_recovery",
+                               "a garment step went bad (counted in diagnostics as solver_*): "
+                               + ", ".join(f"{name} {what}" for name, what in recovered))
         self.stats.record_publish(publish_s)
         if self.rerun is not None:
             self._log_rerun(result, payload, publish_s)
+
+    def _publish_markers(self, clear: bool = False) -> None:
+        """The held frame's markers; after a change of garments or namespaces (or volumes switched off), a
+        DELETEALL first that drops the old ones (published once, the held message is without it)."""
+        payload, stamp = self._held
+        v = self.values
+        markers = frame_markers(payload, v["marker_namespace"], v["fixed_frame"], stamp, v["publish_volumes"])
+        self._held_message = serialize_marker_array(markers)
+        if clear or self._clear_markers:
+            self._clear_markers = False
+            self.marker_publisher.publish(serialize_marker_array(
+                frame_markers(payload, v["marker_namespace"], v["fixed_frame"], stamp, v["publish_volumes"],
+                              clear=True)))
+        else:
+            self.marker_publisher.publish(self._held_message)
+
+    def _publish_held(self) -> None:
+        """Nothing new simulated (holding, folded, no newer pose): the last garment again, at rate_hz, so
+        a late subscriber sees it; not while (re-)dressing, whose first frame replaces it."""
+        if self._held is None or self.loop.character is None:
+            return
+        if self._clear_markers:
+            self._publish_markers()
+        else:
+            self.marker_publisher.publish(self._held_message)
 
     def _log_rerun(self, result: FrameResult, payload: dict, publish_s: float) -> None:
         try:
@@ -460,43 +405,20 @@ class GarmentSimNode(Node):
         now = self.get_clock().now()
         if now.nanoseconds == 0 and self.get_clock().ros_time_is_active:
             self.loop.clock_not_started()  # use_sim_time and no /clock yet: the frame timer does not fire
-        loop = self.loop
-        lagging = figures["lag_fraction"] > LAG_WARNING_FRACTION
-        level, message = DiagnosticStatus.OK, loop.status
         failed = self.frame_errors > self._frame_errors_reported  # a frame failed since the last status
         self._frame_errors_reported = self.frame_errors
-        if loop.status == Status.UNMAPPABLE or failed:
-            level = DiagnosticStatus.ERROR
-        elif loop.status != Status.RUNNING or lagging:
-            level = DiagnosticStatus.WARN
-        if loop.detail:
-            message = f"{loop.status}: {loop.detail}"
-        elif lagging:
-            message = (f"{loop.status}; too slow: the garments simulated only {1 - figures['lag_fraction']:.0%} of "
-                       f"the body's time (max_substeps), {figures['lag_s']:.3f} s behind in total")
-        values = {key: f"{value:.6g}" for key, value in figures.items()}
-        values.update({
-            "status": loop.status,
-            "garments": " ".join(loop.garments),
-            "mass_points": str(loop.mass_points),
-            "skeleton_age_s": f"{loop.skeleton_age(now.nanoseconds * 1e-9):.6g}",
-            "total_frames": str(self.stats.total_frames),
-            "frame_errors": str(self.frame_errors),
-            "params_file_errors": str(self.params_file_errors),
-        })
-        values.update({f"input_{key}": str(count) for key, count in sorted(self.input_counts.items())})
-        values.update({f"rejected_{key}": str(count) for key, count in sorted(self.buffer.rejected.items())})
-        values.update({f"adjusted_{key}": str(count) for key, count in sorted(self.buffer.adjusted.items())})
-        values.update({f"loop_{key}": str(count) for key, count in sorted(loop.counts.items())})
-        values.update({f"solver_{key}": str(count) for key, count in sorted(self.stats.recoveries.items())})
-        self.last_diagnostics = values
-        status = DiagnosticStatus(level=level, name=f"garment_sim: {self.get_fully_qualified_name()}",
-                                  message=message,
-                                  hardware_id=self.values["frame_prefix"] or self.values["fixed_frame"],
-                                  values=[KeyValue(key=k, value=v) for k, v in values.items()])
+        level, message = level_and_message(self.loop, figures, failed)
+        totals = {"total_frames": self.stats.total_frames, "frame_errors": self.frame_errors,
+                  "params_file_errors": self.params_watch.errors}
+        counters = {"input": self.input_counts, "rejected": self.buffer.rejected, "adjusted": self.buffer.adjusted,
+                    "loop": self.loop.counts, "solver": self.stats.recoveries}
+        self.last_diagnostics = status_values(self.loop, figures, now.nanoseconds * 1e-9, totals, counters)
+        status = diagnostic_status(f"garment_sim: {self.get_fully_qualified_name()}",
+                                   self.values["frame_prefix"] or self.values["fixed_frame"], level, message,
+                                   self.last_diagnostics)
         self.diagnostics_publisher.publish(DiagnosticArray(header=Header(stamp=now.to_msg()), status=[status]))
 
-    def _log(self, level: str, key: str, message: str) -> None:
+    def log_throttled(self, level: str, key: str, message: str) -> None:
         if not self._throttle.ready(key):
             return
         # one call per severity: rclpy's logger refuses two severities from one line of code
@@ -516,14 +438,7 @@ def main(args: list[str] | None = None) -> int:
     """Console entry point ``garment_sim_node``, e.g.
     ``garment_sim_node --ros-args --params-file config/garment_sim.yaml -r __ns:=/alice -p frame_prefix:=alice/``."""
     rclpy.init(args=args)
-    node = GarmentSimNode(params_file_hint=params_file_from_args(sys.argv if args is None else args))
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+    spin_until_shutdown(GarmentSimNode(params_file_hint=params_file_from_args(sys.argv if args is None else args)))
     return 0
 
 

@@ -33,6 +33,7 @@ from tf2_msgs.msg import TFMessage
 
 from ..body.sources import GAITS, MotionSource, bvh_source, procedural_source
 from .bag_io import STORAGES, TF_TYPE, BagError, BagWriter
+from .spinning import spin_until_shutdown
 
 NODE_NAME = "skeleton_player"
 _FRAME_CHARS = re.compile(r"^[A-Za-z0-9_/.-]*$")  # tf frame names: no spaces, no quoting
@@ -186,7 +187,8 @@ class SkeletonPlayer(Node):
 
 
 def main(args=None) -> int:
-    """Console script ``skeleton_player``: spins until Ctrl-C; exit code 2 on a bad parameter or clip."""
+    """Console script ``skeleton_player``: spins until SIGINT or SIGTERM (exit 0); exit code 2 on a bad parameter
+    or clip."""
     rclpy.init(args=args)
     try:
         try:
@@ -194,12 +196,7 @@ def main(args=None) -> int:
         except ValueError as error:
             print(f"error: {error}", file=sys.stderr)
             return 2
-        try:
-            rclpy.spin(node)
-        except KeyboardInterrupt:
-            pass
-        finally:
-            node.destroy_node()
+        spin_until_shutdown(node)
         return 0
     finally:
         rclpy.try_shutdown()
