@@ -346,7 +346,7 @@ def surface_velocity(pos0, rot0, pos1, rot1, v, lx, ly, lz, h):
 # A point inside an ellipsoid that came in through one of its cut planes this substep leaves through that
 # plane when the static projection (keep z, out across the cross-section) would move it further than this
 # share of the volume's smaller radius; nearer the surface it leaves across it, as the memo does. Trousers,
-# 9 clips x 1-3x x 60/30 fps, 3 s: guard firings 96 -> 39 (all on the cartwheel), frames with a leg off
+# 9 clips x 1-3x x 60/30 fps, 3 s: guard firings 96 -> 39 (38 on the cartwheel), frames with a leg off
 # 246 -> 135. Without the share (any point that came through a cut) hem points at the shins' ankle cut
 # went out under the shin and the walks at 30 fps lost a trouser leg (CC walk 1x/2x: 19, 36 frames).
 _CUT_EXIT_SHARE = 0.5
