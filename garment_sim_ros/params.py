@@ -74,6 +74,9 @@ PARAMETERS: tuple[Param, ...] = (
           "fixed substep h; a frame of length dt runs ceil(dt/h) substeps of dt/n (<= h)"),
     Param("max_substeps", 8, "1", 1, 200,
           "IC_max: at most this many substeps per frame; past it the garment lags real time (reported)"),
+    Param("limb_step_ratio", 0.25, "1", 0.0, 100.0,
+          "substeps from the limbs' speed: enough per frame (at most max_substeps) that no point of a body "
+          "volume's surface moves more than this x the volume's radius in one substep; 0: only substep decides"),
     Param("correction_iterations", 4, "1", 0, 200,
           "Provot length-correction iterations per substep (contacts are handled after the first)"),
     Param("limit_ratio", 0.01, "1", 0.0, 1.0,
@@ -114,6 +117,9 @@ PARAMETERS: tuple[Param, ...] = (
           "c_time of memo Eq. 6-8: share of the step left after a hit that the point moves with the volume"),
     Param("dynamic_switch_ratio", 0.125, "1", 0.0, 100.0,
           "dynamic (swept) handling when the relative trajectory is longer than this x volume radius (memo: 1/8)"),
+    Param("max_distance", 0.0, "m", 0.0, 10.0,
+          "motion constraints (opt-in safety net): a free point stays within this distance of its skinned "
+          "position (rigid on its nearest body volume, bound at dressing); 0: off"),
     Param("collision_mode", "adaptive", "", None, None,
           "adaptive (memo §6.2.1), static only or dynamic only", COLLISION_MODES),
 )
@@ -125,6 +131,7 @@ PARAMETER_TABLE = {p.name: p for p in PARAMETERS}
 class SolverParams:
     substep: float
     max_substeps: int
+    limb_step_ratio: float
     correction_iterations: int
     limit_ratio: float
     areal_density: float
@@ -148,6 +155,7 @@ class SolverParams:
     collision_epsilon: float
     contact_time_fraction: float
     dynamic_switch_ratio: float
+    max_distance: float
     collision_mode: str
 
     def __post_init__(self):
@@ -183,6 +191,7 @@ PRESETS: dict[str, SolverParams] = {
         limit_ratio=0.01,
         friction=0.2,
         max_substeps=6,
+        limb_step_ratio=0.0,  # the memo's fixed substeps
         correction_iterations=2,
         substep=0.04 / 6,
     ),

@@ -21,21 +21,26 @@ from ..body.measurements import STANDARD_BODY, BodyMeasurements
 GARMENT_NAMES = ("short_skirt", "long_skirt", "pants", "one_piece")
 MAX_RESOLUTION = 20.0
 _LEG_GAP = 0.004  # m between a trouser leg's inner side and the body's mid-plane
-# The trousers' crotch seam hangs one thigh radius plus this margin (m) below the body's crotch (the
+# The trousers' crotch seam hangs one thigh radius plus this share of it below the body's crotch (the
 # pelvis volume's bottom cut). A thigh swinging by an angle a about its hip joint lifts the front (in
 # flexion) or back (in extension) of its surface at the crotch by r sin(a) <= r, its radius r, whatever
 # the angle; the leg tubes carry the seam up with it. A seam nearer than that is pushed into the pelvis
-# volume, and the static handling (keep z, out radially) throws it sideways across a thigh: measured on
-# the CC walk with the former fixed 25 mm, the seam's points rose up to 115 mm into the pelvis and were
-# thrown up to 24 cm sideways (a thigh on the wrong side of the seam: 34 of 156 frames with a thigh
-# through the cloth, 12 with a leg out of its trouser leg). The margin keeps a seam resting a hair up
-# out of the pelvis, as before.
-_CROTCH_EASE = 0.025
+# volume, and the static handling (keep z, out radially) throws it sideways across a thigh (CC walk, a
+# fixed 25 mm margin before: 34 of 156 frames with a thigh through the cloth, 12 with a leg out). Deep
+# flexion needs more: past 90 deg the pelvis tilts too and the front of the hip tube folds into the crease
+# between thigh and belly, and a short rise is dragged along the thigh. Measured on the CC jump (both hips
+# to 120 deg), 3 s at 1x/2x/3x, 60 fps: margin 0.3 r (25 mm at r = 85 mm, before) legs off 152/6/70
+# frames, guard 16/8/5; 0.65 r legs off 0/0/0, guard 2/1/1; more thigh ease (0.6 r) made it worse.
+_CROTCH_EASE_PER_THIGH = 0.65
+# Ease of a trouser leg (added to the body's radius there), as shares of the thigh's radius: round the
+# thigh and knee (35 mm on the 1.75 m standard body), and below the knee (45 mm): scaled with the body.
+_THIGH_EASE_PER_THIGH = 0.41
+_SHIN_EASE_PER_THIGH = 0.53
 
 
 def _crotch_drop(body: BodyMeasurements) -> float:
     """How far (m) the trousers' crotch seam hangs below the body's crotch: room for the thighs' swing."""
-    return body.thigh_radius + _CROTCH_EASE
+    return body.thigh_radius * (1.0 + _CROTCH_EASE_PER_THIGH)
 
 
 @dataclass(frozen=True)
@@ -215,9 +220,12 @@ def pants(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> Ga
         rings = [top]
         for k in range(1, n_leg_levels + 1):
             z = crotch_z + (hem_z - crotch_z) * k / n_leg_levels
-            radius = float(np.interp(z, [body.knee_z, crotch_z], [body.knee_radius, body.thigh_radius])) + 0.035
             if z < body.knee_z:
-                radius = float(np.interp(z, [body.ankle_z, body.knee_z], [body.ankle_radius, body.knee_radius])) + 0.045
+                radius = float(np.interp(z, [body.ankle_z, body.knee_z], [body.ankle_radius, body.knee_radius]))
+                radius += _SHIN_EASE_PER_THIGH * body.thigh_radius
+            else:
+                radius = float(np.interp(z, [body.knee_z, crotch_z], [body.knee_radius, body.thigh_radius]))
+                radius += _THIGH_EASE_PER_THIGH * body.thigh_radius
             # The legs' inner sides must not cross the body's mid-plane into the other leg.
             ry = min(radius, 0.5 * (body.leg_y + radius - _LEG_GAP))
             centre_y = max(body.leg_y, _LEG_GAP + ry)

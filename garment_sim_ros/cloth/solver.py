@@ -30,8 +30,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..params import DEFAULT_PARAMS, SolverParams
-from ..transforms import transform_points, yaw_quat
+from ..transforms import quat_conjugate, quat_multiply, transform_points, yaw_quat
 from . import kernels
+from .motion_constraints import SkinBinding, limit_distance
 from .model import BEND, SHEAR, STRUCTURAL, ClothModel
 
 
@@ -135,13 +136,29 @@ def derive_constants(model: ClothModel, params: SolverParams) -> DerivedConstant
                             int(np.count_nonzero(limited)))
 
 
-def substep_plan(dt: float, params: SolverParams) -> tuple[int, float]:
+def substep_plan(dt: float, params: SolverParams, limb_travel: float = 0.0) -> tuple[int, float]:
     """Substeps for a frame of ``dt`` seconds: ``ceil(dt / h)`` equal substeps (each <= h), at most
-    ``max_substeps`` (memo's IC_max); when capped, substeps of ``h`` and the garment lags."""
+    ``max_substeps`` (memo's IC_max); when capped, substeps of ``h`` and the garment lags.
+
+    ``limb_travel`` (``volume_travel``, in volume radii) asks for more when the limbs are fast: with
+    ``limb_step_ratio`` > 0 at least ``limb_travel / limb_step_ratio`` substeps, up to ``max_substeps``
+    (never a lag for it: the frame is still simulated in full)."""
     needed = max(1, math.ceil(dt / params.substep - 1e-9))
-    if needed <= params.max_substeps:
-        return needed, dt / needed
-    return params.max_substeps, params.substep
+    if needed > params.max_substeps:
+        return params.max_substeps, params.substep
+    if params.limb_step_ratio > 0.0:
+        needed = min(params.max_substeps, max(needed, math.ceil(limb_travel / params.limb_step_ratio - 1e-9)))
+    return needed, dt / needed
+
+
+def volume_travel(volumes, positions0, rotations0, positions1, rotations1) -> float:
+    """How far the fastest point of any volume's surface moves between two poses (V, 3), (V, 4) of the
+    volumes, in units of that volume's radius (``Volume.radius``, the adaptive switch's): at most its
+    centre's displacement plus its bounding radius times the rotation's chord 2 sin(angle / 2)."""
+    relative = quat_multiply(quat_conjugate(rotations0), rotations1)
+    chord = 2.0 * np.linalg.norm(relative[:, :3], axis=1)
+    travel = np.linalg.norm(positions1 - positions0, axis=1) + volumes.bounding_radii * chord
+    return float(np.max(travel / volumes.switch_radii))
 
 
 def wind_velocity(params: SolverParams, t: float) -> np.ndarray:
@@ -195,6 +212,7 @@ class GarmentSolver:
         self._edges = np.ascontiguousarray(model.springs[model.spring_kinds == STRUCTURAL])
         self._edge_rest = np.ascontiguousarray(model.rest_lengths[model.spring_kinds == STRUCTURAL])
         self.collider = None
+        self.skin: SkinBinding | None = None  # bound by ``reset`` (motion constraints, ``max_distance``)
         if volumes is not None and len(volumes):
             from ..collision.collider import Collider
 
@@ -241,6 +259,9 @@ class GarmentSolver:
         x = self.model.rest_positions.copy()
         x[self.model.attached] = self._attachment_targets(root_position, root_yaw, frame_positions, frame_rotations)
         self.state = ClothState(x, np.zeros_like(x), time=time_s)
+        if self.volumes is not None and len(self.volumes):  # the motion constraints' rest binding
+            self.skin = SkinBinding(x, self.volumes, *self._local_volume_poses(root_position, root_yaw, frame_positions,
+                                                                              frame_rotations))
 
     def world_positions(self, root_position, root_yaw) -> np.ndarray:
         return transform_points(np.asarray(root_position, float), yaw_quat(root_yaw), self.state.positions)
@@ -251,7 +272,13 @@ class GarmentSolver:
         dt = float(frame.t1 - frame.t0)
         if not dt > 0.0:
             raise ValueError(f"advance: frame end {frame.t1} must be after its start {frame.t0}")
-        count, h = substep_plan(dt, params)
+        collider, poses0, poses1 = self.collider, None, None
+        if collider is not None and _finite_frame(frame):
+            poses0 = self._local_volume_poses(frame.root_position0, frame.root_yaw0,
+                                              frame.frame_positions0, frame.frame_rotations0)
+            poses1 = self._local_volume_poses(frame.root_position1, frame.root_yaw1,
+                                              frame.frame_positions1, frame.frame_rotations1)
+        count, h = substep_plan(dt, params, volume_travel(self.volumes, *poses0, *poses1) if poses0 else 0.0)
         report = FrameReport(substeps=count, substep_s=h, simulated_s=count * h)
         last_good = (state.positions.copy(), state.velocities.copy())  # for the guard at the end
         state.lag += dt - count * h
@@ -277,14 +304,11 @@ class GarmentSolver:
                                             frame.frame_positions0, frame.frame_rotations0)
         targets1 = self._attachment_targets(frame.root_position1, frame.root_yaw1,
                                             frame.frame_positions1, frame.frame_rotations1)
-        collider = self.collider
         if collider is not None:
-            collider.begin_frame(
-                *self._local_volume_poses(frame.root_position0, frame.root_yaw0,
-                                          frame.frame_positions0, frame.frame_rotations0),
-                *self._local_volume_poses(frame.root_position1, frame.root_yaw1,
-                                          frame.frame_positions1, frame.frame_rotations1),
-            )
+            collider.begin_frame(*poses0, *poses1)
+        constrained = params.max_distance > 0.0 and self.skin is not None
+        if constrained:
+            skinned0, skinned1 = self.skin.positions(*poses0), self.skin.positions(*poses1)
         x, v = state.positions, state.velocities
         clock = time.perf_counter
         for k in range(count):
@@ -317,6 +341,8 @@ class GarmentSolver:
                     tic = clock()
                     collider.handle_contacts(x, v, const.inv_mass, h, self._x_start)
                     report.collision_s += clock() - tic
+            if constrained:
+                limit_distance(x, skinned0, skinned1, f1, params.max_distance, const.inv_mass)
             tic = clock()
             kernels.velocities_from_positions(x, self._x_start, h, v)
             tac = clock()
