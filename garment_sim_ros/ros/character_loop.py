@@ -44,6 +44,7 @@ import math
 import time
 from collections import Counter
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -55,6 +56,7 @@ from ..body.pose_buffer import PoseBuffer, SampleStatus
 from ..body.canonical import canonical_pose, local_transforms
 from ..body.skeleton import Skeleton, SkeletonPose
 from ..cloth.solver import FrameReport
+from ..cloth.spec import resolve_garment
 from ..dressing import DressedCharacter
 from ..params import SolverParams
 
@@ -115,11 +117,13 @@ class CharacterLoop:
 
     def __init__(self, buffer: PoseBuffer, params: SolverParams, garments: Sequence[str], resolution: float,
                  frame_prefix: str = "", root_frame: str = "", joint_map_file: str = "", logger=None,
-                 catch_up_wall_s: float = CATCH_UP_WALL_S, body_file: str = ""):
+                 catch_up_wall_s: float = CATCH_UP_WALL_S, body_file: str = "", garment_path: Sequence[str] = ()):
         self.buffer = buffer
         self.params = params
         self.garments = list(garments)
         self.resolution = float(resolution)
+        self.garment_path = tuple(garment_path)
+        self._spec_stamps: dict[Path, float] = {}  # the dressed garments' spec and mesh files -> mtime
         self.frame_prefix = frame_prefix
         self.root_frame = root_frame
         self.joint_map_file = joint_map_file
@@ -145,12 +149,25 @@ class CharacterLoop:
         if self.character is not None:
             self.character.set_params(params)
 
-    def set_garments(self, garments: Sequence[str], resolution: float) -> None:
+    def set_garments(self, garments: Sequence[str], resolution: float, garment_path: Sequence[str] | None = None) -> None:
         """Wear other garments (or the same at another resolution): re-dressed at the next frame."""
         self.garments = list(garments)
         self.resolution = float(resolution)
+        if garment_path is not None:
+            self.garment_path = tuple(garment_path)
+        self._spec_stamps = {}
         self.character = None
         self._refused = None
+
+    def _specs_changed(self) -> bool:
+        """Whether a dressed garment's spec or mesh file was saved since it was read."""
+        for path, stamp in self._spec_stamps.items():
+            try:
+                if path.stat().st_mtime != stamp:
+                    return True
+            except OSError:
+                return True
+        return False
 
     @property
     def mass_points(self) -> int:
@@ -165,6 +182,9 @@ class CharacterLoop:
     # -------------------------------------------------------------------------- the frame
     def frame(self, time_s: float) -> FrameResult | None:
         """Advance the garments to ``time_s``; None when nothing new was simulated."""
+        if self._specs_changed():  # also after a refused spec: its fix dresses again
+            self._log("info", "spec_changed", "a garment spec or mesh file changed: dressing again")
+            self.set_garments(self.garments, self.resolution)
         if self.character is None:
             return self._dress_when_ready(time_s)
         if time_s <= self.last_time:
@@ -345,12 +365,18 @@ class CharacterLoop:
             bare_map = auto_joint_map(bare, pose.positions)
         joint_map = {role: skeleton.names[bare.index(name)] for role, name in bare_map.items()}
         overrides = load_body_overrides(self.body_file) if self.body_file else None
-        body = fit_body(canonical_pose(pose, joint_map), joint_map, detailed="one_piece" in self.garments,
+        self._spec_stamps = {Path(g): Path(g).stat().st_mtime for g in self.garments if Path(g).is_file()}
+        specs = [resolve_garment(g, self.garment_path) for g in self.garments]
+        self._spec_stamps.update({f: f.stat().st_mtime for s in specs for f in (s.path, s.mesh) if f is not None})
+        body = fit_body(canonical_pose(pose, joint_map), joint_map, detailed=any(s.detailed_body for s in specs),
                         overrides=overrides)
         if body.estimated:
             self._log("warning", "estimated", f"body measurement(s) {', '.join(body.estimated)} were out of human "
                       "range for this skeleton and were estimated from its height; override them with body_file")
-        return DressedCharacter(body, self.garments, self.params, self.resolution), joint_map
+        character = DressedCharacter(body, specs, self.params, self.resolution)
+        for note in character.notes:
+            self._log("warning", "moved_out", note)
+        return character, joint_map
 
     def _bones_settled(self, skeleton: Skeleton, time_s: float, pose: SkeletonPose) -> tuple[str, str]:
         """``("", "")`` if the bones seen at ``time_s`` are those of ``BONE_CHECK_S`` earlier, else a reason

@@ -56,7 +56,8 @@ from .character_loop import CharacterLoop, FrameResult, Status, Throttle
 from .frame_stats import FrameStats
 from .marker_cdr import DELETEALL, MarkerData, serialize_marker_array
 from .params_file import FileWatch, ParamsFileError, read_node_parameters
-from .settings import ALL_PARAMETERS, PARAMETER_ROWS, SOLVER_PARAMETER_NAMES, is_read_only
+from .settings import (ALL_PARAMETERS, PARAMETER_ROWS, SOLVER_PARAMETER_NAMES, check_garments, garment_folders,
+                       is_read_only)
 from .tf_input import IngestResult, TFDecoder, TransformBatch, ingest, ingest_batch, seconds_to_stamp
 
 NODE_NAME = "garment_sim_node"
@@ -68,8 +69,8 @@ LAG_WARNING_FRACTION = 0.1  # diagnostics turn WARN when the garments fall behin
 _TF_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 _TF_STATIC_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
-_REDRESS_KEYS = ("garments", "resolution")
-_CLEAR_KEYS = ("garments", "resolution", "marker_namespace", "publish_volumes")
+_REDRESS_KEYS = ("garments", "resolution", "garment_path")
+_CLEAR_KEYS = ("garments", "resolution", "garment_path", "marker_namespace", "publish_volumes")
 
 
 def _parameter_type(row: Param) -> Parameter.Type:
@@ -137,7 +138,7 @@ class GarmentSimNode(Node):
         self.loop = CharacterLoop(self.buffer, self.solver_params, v["garments"], v["resolution"],
                                   frame_prefix=v["frame_prefix"], root_frame=v["root_frame"],
                                   joint_map_file=v["joint_map_file"], body_file=v["body_file"],
-                                  logger=self.get_logger())
+                                  logger=self.get_logger(), garment_path=garment_folders(v["garment_path"]))
         self.stats = FrameStats()
         self.input_counts: Counter[str] = Counter()  # transforms stored / of other characters / refused
         self.frame_errors = 0
@@ -204,6 +205,9 @@ class GarmentSimNode(Node):
                                      f"{self.values[name]!r}, got {value!r}")
             checked.append(Parameter(name, _parameter_type(PARAMETER_ROWS[name]), _ros_value(value)))
             changes[name] = value
+        if {"garments", "garment_path"} & changes.keys():
+            check_garments(changes.get("garments", self.values["garments"]),
+                           changes.get("garment_path", self.values["garment_path"]))
         solver_changes = {k: v for k, v in changes.items() if k in SOLVER_PARAMETER_NAMES}
         if solver_changes:
             self.solver_params.replace(**solver_changes)
@@ -242,7 +246,8 @@ class GarmentSimNode(Node):
             self.solver_params = SolverParams(**{name: self.values[name] for name in SOLVER_PARAMETER_NAMES})
             self.loop.set_params(self.solver_params)
         if any(key in changes for key in _REDRESS_KEYS):
-            self.loop.set_garments(self.values["garments"], self.values["resolution"])
+            self.loop.set_garments(self.values["garments"], self.values["resolution"],
+                                   garment_folders(self.values["garment_path"]))
         if any(key in changes for key in _CLEAR_KEYS):
             self._clear_markers = True
         self.buffer.max_age_s = self.values["max_skeleton_age"]
