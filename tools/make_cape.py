@@ -1,10 +1,10 @@
 #!/usr/bin/env python3
 """Generate the example garment config/garments/cape.obj and its spec cape.yaml.
 
-A cape open at the front: a closed collar ring round the neck base, then a panel over the shoulders and
-down the back and sides to above the knee, open over 120 degrees at the front. It is cut on the
-procedural character (1.75 m) in the canonical pose, in its root frame (x forward, y left, z up, m): a
-smooth flared outline, each vertex then moved out along its horizontal ray from the neck axis until it
+A short cape: a closed collar ring round the neck base, then a panel from the shoulders down the back to
+the hips, covering the back third of the way round (open over 240 degrees at the front: the arms swing
+outside it). It is cut on the procedural character (1.75 m) in the canonical pose, in its root frame
+(x forward, y left, z up, m): a smooth flared outline, each vertex then moved out along its horizontal ray from the neck axis until it
 clears the body's fitted volumes (the 15-volume body) by ``CLEARANCE_M``, so the cape starts off the
 shoulders and arms. The spec fits the collar's top loop to the wearer's neck (scaled across to the neck,
 heights by the stature ratio) and hangs it on the chest. Run from the repository root:
@@ -20,14 +20,14 @@ from pathlib import Path
 import numpy as np
 
 AROUND = 48  # vertices round the collar
-OPEN_DEG = 120.0  # the front opening, centred on +x
+OPEN_DEG = 240.0  # the front opening, centred on +x
 CLEARANCE_M = 0.02  # each vertex this far off the volumes (the collision epsilon is 3 mm)
-HEM_BELOW_NECK = 0.95  # hem this many metres below the collar on the 1.75 m body (above the knee)
+HEM_BELOW_NECK = 0.55  # hem this many metres below the collar on the 1.75 m body (the hips)
 PANEL_LEVELS = 16  # levels of the panel below the collar
 # the panel's outline before clearing the body: (depth below the collar m, half depth x, half width y)
 OUTLINE = [(0.0, 0.09, 0.09), (0.03, 0.15, 0.22), (0.10, 0.19, 0.29), (0.30, 0.21, 0.32), (HEM_BELOW_NECK, 0.27, 0.40)]
 SPEC = """\
-# A cape open at the front: the example garment. Generated with its mesh by tools/make_cape.py.
+# A short cape down the back: the example garment. Generated with its mesh by tools/make_cape.py.
 # Keys: README, "Your own garments".
 name: cape
 mesh: cape.obj
@@ -36,7 +36,8 @@ up_axis: z
 placement: {{mode: fit, anchor: neck, reference_height: {height:.3f}}}  # the collar on the wearer's neck
 attach:
   - role: chest
-    vertices: {{loop: top}}              # the collar rides on the chest
+    vertices: {{loop: top}}              # the collar rides on the chest,
+    falloff: 0.04                      # and the yoke within 4 cm of it (off the trunk's top rim)
 material: cotton_shirting
 layer: 1
 detailed_body: true                    # neck and forearm volumes under the cape
