@@ -16,8 +16,9 @@ import numpy as np
 MAX_GARMENT_SIZE_M = 3.0
 MIN_GARMENT_SIZE_M = 0.05
 # A triangle whose area is below this fraction of the mean edge length squared is degenerate.
-DEGENERATE_AREA_RATIO = 1e-8
-_UNIT_HINTS = {"mm": 1e-3, "cm": 1e-2, "in": 0.0254, "m": 1.0}
+DEGENERATE_AREA_RATIO = 1e-6  # above float32 rounding of a file's coordinates
+UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254}  # a spec's units: metres per number in the file
+_HINT_ORDER = ("cm", "mm", "in", "m")  # the first that gives a garment's size is suggested
 
 
 class GarmentMeshError(ValueError):
@@ -31,8 +32,12 @@ def directed_edges(triangles: np.ndarray) -> np.ndarray:
 
 
 def _size_hint(as_read: float) -> str:
-    """The units that make a garment whose file says ``as_read`` across about a metre across."""
-    return min(_UNIT_HINTS, key=lambda u: abs(np.log(as_read * _UNIT_HINTS[u])))
+    """What units would make a garment whose file says ``as_read`` across a garment's size."""
+    for unit in _HINT_ORDER:
+        metres = UNITS[unit]
+        if MIN_GARMENT_SIZE_M <= as_read * metres <= MAX_GARMENT_SIZE_M:
+            return f"The file's numbers read as {unit} give {as_read * metres:.3g} m (set units: {unit})"
+    return "No unit makes it a garment's size: check the file"
 
 
 def check_mesh(vertices: np.ndarray, triangles: np.ndarray, where: str, units: str = "m") -> None:
@@ -51,12 +56,10 @@ def check_mesh(vertices: np.ndarray, triangles: np.ndarray, where: str, units: s
 
     extent = float(np.max(x.max(axis=0) - x.min(axis=0)))
     if not MIN_GARMENT_SIZE_M <= extent <= MAX_GARMENT_SIZE_M:
-        as_read = extent / _UNIT_HINTS.get(units, 1.0)
-        hint = _size_hint(as_read)
         raise GarmentMeshError(
             f"{where}: the garment is {extent:.3g} m across (units: {units}), outside "
-            f"[{MIN_GARMENT_SIZE_M}, {MAX_GARMENT_SIZE_M}] m: wrong units? The file's numbers read as "
-            f"{hint} give {as_read * _UNIT_HINTS[hint]:.3g} m (set units: {hint})")
+            f"[{MIN_GARMENT_SIZE_M}, {MAX_GARMENT_SIZE_M}] m: wrong units? "
+            f"{_size_hint(extent / UNITS.get(units, 1.0))}")
 
     repeated = (t[:, 0] == t[:, 1]) | (t[:, 1] == t[:, 2]) | (t[:, 2] == t[:, 0])
     p = x[t]

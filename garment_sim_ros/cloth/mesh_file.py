@@ -16,9 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .mesh_check import GarmentMeshError
+from .mesh_check import UNITS, GarmentMeshError
 
-UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254}
 # up_axis z: the file is in the project's frame (x forward, y left, z up). up_axis y: the glTF and
 # Blender-export convention (+y up, +z forward, +x the model's left); rows are the file's x, y, z in ours.
 UP_AXES = {
@@ -73,7 +72,7 @@ def load_mesh_file(path: str | Path, units: str = "m", up_axis: str = "z", where
     rank[order] = np.arange(len(order))
     file_to_mesh = rank[inverse.ravel()]
     keep = first[order]
-    vertices = file_vertices[keep] * UNITS[units] @ UP_AXES[up_axis].T
+    vertices = file_vertices[keep] * UNITS[units] @ UP_AXES[up_axis]  # rows: the file's axes in ours
     return MeshFile(path, vertices, file_to_mesh[np.asarray(mesh.faces, dtype=np.int64)],
                     None if colours is None else colours[keep],
                     {name: _merged_membership(member, file_to_mesh, len(keep)) for name, member in groups.items()},

@@ -41,8 +41,8 @@ from ..config_files import read_yaml
 from ..params import ParameterError
 from .garments import GARMENT_NAMES, GarmentMesh, build_garment
 from .materials import material_overrides
-from .mesh_check import GarmentMeshError, boundary_loops, check_mesh
-from .mesh_file import FORMATS, UNITS, UP_AXES, MeshFile, decimate, load_mesh_file
+from .mesh_check import UNITS, GarmentMeshError, boundary_loops, check_mesh
+from .mesh_file import FORMATS, UP_AXES, MeshFile, decimate, load_mesh_file
 
 SPEC_SUFFIXES = (".yaml", ".yml")
 PLACEMENTS = ("as_is", "fit")
