@@ -456,3 +456,28 @@ def test_the_node_wears_a_spec_file_and_dresses_again_when_it_is_saved(graph, tm
     result = node.set_parameters_atomically([Parameter("garments", value=["pants", str(bad)])])
     assert not result.successful and str(bad) in result.reason and "not found" in result.reason
     assert node.get_parameter("garments").value == ["pants", str(spec)]
+
+
+def test_the_command_line_takes_a_spec_refuses_a_dense_mesh_and_decimates_it_on_request(tmp_path):
+    vertices, triangles = skirt_tube(around=64, levels=30)  # 1920 vertices
+    write_mesh(tmp_path / "dense.ply", vertices, triangles)
+    spec = write_spec(tmp_path / "dense.yaml", """\
+        mesh: dense.ply
+        placement: {mode: fit, anchor: waist}
+        attach: [{role: pelvis, vertices: {loop: top}}]
+        max_vertices: 800
+        """)
+    run = [sys.executable, "-m", "garment_sim_ros.cli", "simulate", "--garments", f"pants,{spec}", "--duration", "0.2",
+           "--json"]
+    refused = subprocess.run(run, capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert refused.returncode == 2 and "Traceback" not in refused.stderr
+    assert "1920 vertices, more than max_vertices 800" in refused.stderr and "--decimate 800" in refused.stderr
+    export = tmp_path / "run.npz"
+    done = subprocess.run([*run, "--decimate", "700", "--export", str(export)], capture_output=True, text=True,
+                          timeout=600, cwd=ROOT)
+    assert done.returncode == 0, done.stderr
+    summary = json.loads(done.stdout.splitlines()[-1])["summary"]
+    assert summary["garments"] == ["pants", "dense"] and summary["bones_through_frames"] == 0
+    with np.load(export) as run_file:
+        assert list(run_file["garment_names"]) == ["pants", "dense"]
+        assert 100 < run_file["garment_dense_positions"].shape[1] <= 700
