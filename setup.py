@@ -13,6 +13,7 @@ setup(
         ("share/" + package_name, ["package.xml"]),
         ("share/" + package_name + "/config", glob("config/*.yaml")),
         ("share/" + package_name + "/config/joint_maps", glob("config/joint_maps/*.yaml")),
+        ("share/" + package_name + "/config/garments", glob("config/garments/*")),
     ],
     package_data={package_name: ["data/*.yaml"]},
     install_requires=["setuptools"],

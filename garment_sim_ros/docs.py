@@ -1,8 +1,8 @@
-"""The README's parameter tables, generated from the parameter tables themselves.
+"""The README's parameter and material tables, generated from the tables themselves.
 
 ``python -m garment_sim_ros.docs README.md`` rewrites the tables between their markers
 (``<!-- solver-parameters -->`` ... ``<!-- /solver-parameters -->`` and the same for
-``node-parameters``); a test checks the README is current.
+``node-parameters`` and ``materials``); a test checks the README is current.
 """
 
 from __future__ import annotations
@@ -49,7 +49,19 @@ def node_parameter_rows() -> list[str]:
     return rows
 
 
-SECTIONS = {"solver-parameters": solver_parameter_rows, "node-parameters": node_parameter_rows}
+def material_rows() -> list[str]:
+    from .cloth.materials import MATERIAL_PARAMETERS, MATERIALS
+
+    units = {p.name: p.unit for p in PARAMETERS}
+    rows = ["| material | " + " | ".join(f"`{k}` ({units[k]})" for k in MATERIAL_PARAMETERS) + " |",
+            "|---|" + "---|" * len(MATERIAL_PARAMETERS)]
+    for name, values in MATERIALS.items():
+        rows.append(f"| `{name}` | " + " | ".join(_value(values[k]) for k in MATERIAL_PARAMETERS) + " |")
+    return rows
+
+
+SECTIONS = {"solver-parameters": solver_parameter_rows, "node-parameters": node_parameter_rows,
+            "materials": material_rows}
 
 
 def render(text: str) -> str:

@@ -3,7 +3,7 @@
 This is what the node, the command line and the benchmarks drive. Give it skeleton poses
 (``SkeletonPose``, world frame) with the root's motion, and it advances every garment:
 
-    character = DressedCharacter(body, ["pants"], params)
+    character = DressedCharacter(body, ["pants"], params)   # built-in names, spec files or GarmentSpecs
     character.dress(first_pose, t0)             # fit the garments from the rest pose onto the first pose
     reports = character.step(pose, motion, t)    # one frame per call
 
@@ -16,11 +16,16 @@ Dressing goes through the canonical standing pose (``body.canonical``), on which
 fitted and the garments cut, so the garments start clear of every volume by construction: every
 joint's rotation relative to its parent turns from the canonical pose's to the target pose's
 (slerp), the skeleton is composed down the tree with its own bones, and the cloth follows.
+
+Every garment comes from a spec (``cloth.spec``: a built-in's procedural source or the user's mesh),
+with its material's parameters in place of the run's. A mesh whose free vertices start inside the
+body's volumes on the rest pose is moved out before anything is simulated, and said so in ``notes``.
 """
 
 from __future__ import annotations
 
 from functools import cached_property
+import dataclasses
 from typing import Sequence
 
 import numpy as np
@@ -28,8 +33,11 @@ import numpy as np
 from .body.pose_buffer import RootMotion, SampleStatus
 from .body.root import root_frame
 from .body.skeleton import SkeletonPose
-from .cloth.garments import build_garment
+from .cloth.garments import GarmentMesh
+from .cloth.mesh_check import GarmentMeshError
 from .cloth.model import build_cloth_model
+from .cloth.spec import GarmentSpec, build_mesh, resolve_garment
+from .collision.collider import Collider
 from .cloth.solver import FrameInput, FrameReport, GarmentSolver
 from .params import SolverParams
 from .quality import GarmentMeter, free_point_depth
@@ -41,25 +49,32 @@ from .transforms import compose, inverse, quat_slerp, yaw_quat
 class DressedCharacter:
     """Garments on a fitted body. ``body`` is a ``body.fitting.Body`` (volumes, measurements, joint map, rest pose)."""
 
-    def __init__(self, body, garment_names: Sequence[str], params: SolverParams, resolution: float = 1.0):
-        if not garment_names:
+    def __init__(self, body, garments: Sequence[str | GarmentSpec], params: SolverParams, resolution: float = 1.0,
+                 garment_path: Sequence[str] = (), decimate_to: int | None = None):
+        if not garments:
             raise ValueError("a dressed character needs at least one garment")
         self.body = body
         self.joint_map = dict(body.joint_map)
         rest = body.rest_pose
         root_position, root_yaw = root_frame(rest, self.joint_map)
         to_root = inverse(root_position, yaw_quat(root_yaw))
+        self.specs = [resolve_garment(g, garment_path) for g in garments]
+        self.notes: list[str] = []  # what dressing changed on a garment (moved out of the body)
         self.solvers: list[GarmentSolver] = []
-        for name in garment_names:
-            mesh = build_garment(name, body.measurements, resolution)
+        rest_frames = [compose(*to_root, *rest.frame(f)) for f in body.volumes.frames]
+        volume_poses = body.volumes.world_poses(np.array([p for p, _ in rest_frames]),
+                                                np.array([q for _, q in rest_frames]))
+        for spec in self.specs:
+            mesh = self._out_of_body(build_mesh(spec, body.measurements, resolution, decimate_to), spec, volume_poses,
+                                     params.replace(**spec.material))
             carriers = [*mesh.attachments, *(second for second, _ in mesh.shared_attachments.values())]
             missing = [role for role in carriers if role not in self.joint_map]
             if missing:
-                raise ValueError(f"garment {name!r} is carried by {missing}, which the joint map does not name")
+                raise ValueError(f"garment {spec.name!r} is carried by {missing}, which the joint map does not name")
             rest_poses = {role: compose(*to_root, *rest.frame(self.joint_map[role])) for role in carriers}
             model = build_cloth_model(mesh, rest_poses)
             frame_names = tuple(self.joint_map[role] for role in model.attachment_frames)
-            self.solvers.append(GarmentSolver(model, body.volumes, params, frame_names))
+            self.solvers.append(GarmentSolver(model, body.volumes, params.replace(**spec.material), frame_names))
         frames: list[str] = []
         for solver in self.solvers:
             frames += [f for f in solver.frames if f not in frames]
@@ -73,8 +88,40 @@ class DressedCharacter:
         return [s.model.name for s in self.solvers]
 
     def set_params(self, params: SolverParams) -> None:
-        for solver in self.solvers:
-            solver.set_params(params)
+        """The run's parameters; each garment's material keeps its own values in place of them."""
+        for solver, spec in zip(self.solvers, self.specs):
+            solver.set_params(params.replace(**spec.material))
+
+
+    def _out_of_body(self, mesh: GarmentMesh, spec: GarmentSpec, volume_poses, params: SolverParams,
+                     passes: int = 6) -> GarmentMesh:
+        """``mesh`` with its free vertices that start inside a volume (on the rest pose, ``volume_poses`` in
+        the root frame) put on the volume's surface, before anything is simulated: a garment simulated from
+        inside a limb stays there. The static collision handling does it, a few passes for vertices in
+        overlapping volumes; the moved vertices are the garment's rest shape, and ``notes`` says so."""
+        if len(self.body.volumes) == 0:
+            return mesh
+        x = np.ascontiguousarray(mesh.vertices, dtype=np.float64).copy()
+        collider = Collider(self.body.volumes, len(x))
+        collider.set_params(params.replace(collision_mode="static", friction=0.0))
+        collider.begin_frame(*volume_poses, *volume_poses)
+        inv_mass = np.ones(len(x))
+        for ids in mesh.attachments.values():
+            inv_mass[ids] = 0.0
+        free = inv_mass > 0.0
+        depth = collider.penetration_depths(x)[free]
+        inside = depth > params.collision_epsilon
+        if not inside.any():
+            return mesh
+        for _ in range(passes):
+            collider.handle_all(x.copy(), x, np.zeros_like(x), inv_mass, 1.0 / 60.0)
+        left = float(np.max(collider.penetration_depths(x)[free]))
+        if left > params.collision_epsilon:
+            raise GarmentMeshError(f"{spec.where}: {int(inside.sum())} vertices start inside the body, still "
+                                   f"{left * 1e3:.0f} mm deep after moving out: place the garment on the body")
+        self.notes.append(f"{spec.name}: {int(inside.sum())} of {int(free.sum())} free vertices started inside the "
+                          f"body (deepest {float(depth.max()) * 1e3:.0f} mm); moved out onto its surface")
+        return dataclasses.replace(mesh, vertices=x)
 
     def _frame_poses(self, pose: SkeletonPose, frames: Sequence[str]):
         index = [pose.skeleton.index(f) for f in frames]

@@ -88,7 +88,7 @@ def test_readable_tables_without_json(capsys):
     (["drape", "--n", "1", "--frames", "2"], "n must be a whole number >= 2"),
     (["drape", "--n", "6", "--frames", "0"], "--frames must be >= 1"),
     (["scale", "--points", "10"], "--points 10: allowed"),
-    (["table1", "--garments", "hat"], "unknown ['hat']"),
+    (["table1", "--garments", "hat"], "unknown garment 'hat'"),
     (["table1", "--threads", "999"], "--threads 999: allowed 1.."),
 ])
 def test_bad_arguments_are_refused_with_a_message(capsys, argv, message):

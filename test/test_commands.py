@@ -10,11 +10,12 @@ def garment_sim(*args: str) -> subprocess.CompletedProcess:
                           timeout=600)
 
 
-def test_garments_json_lists_the_four_templates():
+def test_garments_json_lists_the_four_templates_and_the_shipped_specs():
     result = garment_sim("garments", "--json")
     assert result.returncode == 0, result.stderr
     rows = [json.loads(line) for line in result.stdout.splitlines()]
-    assert [r["name"] for r in rows] == ["short_skirt", "long_skirt", "pants", "one_piece"]
+    assert [r["name"] for r in rows] == ["short_skirt", "long_skirt", "pants", "one_piece", "cape"]
+    assert [r["source"] for r in rows][:4] == ["built-in"] * 4 and rows[4]["source"].endswith("cape.yaml")
     for r in rows:
         assert {"name", "mass_points", "edges", "springs", "triangles"} <= set(r)
         assert r["springs"] > r["edges"] > r["mass_points"] > 0

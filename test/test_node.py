@@ -172,9 +172,9 @@ def test_parameter_changes_apply_at_the_next_frame_and_bad_ones_are_refused(grap
 
     # An integer for a real-valued parameter is taken as that number; a bad garment list is refused.
     (integer, bad_garments) = set_remotely(Parameter("gravity", value=[0, 0, -5]),
-                                           Parameter("garments", value=["pants", "cape"]))
+                                           Parameter("garments", value=["pants", "kilt"]))
     assert integer.successful and node.get_parameter("gravity").value == pytest.approx([0.0, 0.0, -5.0])
-    assert not bad_garments.successful and "cape" in bad_garments.reason and "one_piece" in bad_garments.reason
+    assert not bad_garments.successful and "kilt" in bad_garments.reason and "one_piece" in bad_garments.reason
 
     # Other garments: the character is dressed again with them.
     (garments,) = set_remotely(Parameter("garments", value=["long_skirt"]))

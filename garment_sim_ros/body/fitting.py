@@ -380,6 +380,7 @@ def _measure(fit: _Fit, volumes: VolumeSet, levels: dict[str, float]) -> BodyMea
     knee_radius = max(max(max(v.radii[:2]) for v in shins), max(limb_section(v.name, 0.5 * levels["thigh"]) for v in thighs))
     ankle_radius = max(limb_section(v.name, 0.5 * levels["shin"]) for v in shins)
     head, head_centre, _ = placed("head")
+    chest, chest_centre, chest_axis = placed("chest")
     height = float(head_centre[2] + head.radii[0]) - (ankle_z - ANKLE_HEIGHT_PER_STATURE * stature)
     waist_x, waist_rx, waist_ry = section(waist_z)
     hip_x, hip_rx, hip_ry = section(hip_z)
@@ -393,6 +394,7 @@ def _measure(fit: _Fit, volumes: VolumeSet, levels: dict[str, float]) -> BodyMea
         knee_z=knee_z, knee_radius=float(knee_radius), ankle_z=ankle_z, ankle_radius=float(ankle_radius),
         chest_z=chest_z, chest_rx=chest_rx, chest_ry=chest_ry,
         shoulder_z=levels["shoulder_z"], shoulder_y=levels["shoulder_y"],
+        neck_z=chest_centre[2] + chest.cut[1] * chest_axis[2], neck_radius=NECK_RADIUS_PER_STATURE * stature,
         waist_x=waist_x, hip_x=hip_x, chest_x=chest_x, leg_x=levels["leg_x"], spine_z=levels["spine_z"],
     ).items()})
 

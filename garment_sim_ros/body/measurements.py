@@ -32,6 +32,8 @@ class BodyMeasurements:
     chest_ry: float  # chest half width, m
     shoulder_z: float  # shoulder joint height, m
     shoulder_y: float  # lateral offset of each shoulder joint, m
+    neck_z: float  # the neck's base: where the trunk (the chest volume) ends below the neck, m
+    neck_radius: float  # m
     # Forward offsets (x) of the trunk's cross-sections' centres and of the leg axes, m. Rigs differ in
     # where the root joint sits: CMU's hip joints are 4-6 cm in front of it, the spine above it.
     waist_x: float = 0.0
@@ -51,7 +53,7 @@ class BodyMeasurements:
         if bad:
             raise ValueError(f"BodyMeasurements: {', '.join(bad)} must be > 0")
         order = [("ankle_z", "knee_z"), ("knee_z", "crotch_z"), ("crotch_z", "hip_z"), ("hip_z", "waist_z"),
-                 ("waist_z", "chest_z"), ("chest_z", "shoulder_z")]
+                 ("waist_z", "chest_z"), ("chest_z", "shoulder_z"), ("chest_z", "neck_z")]
         for low, high in order:
             if not getattr(self, low) < getattr(self, high):
                 raise ValueError(f"BodyMeasurements: {low} ({getattr(self, low):.3f} m) must be below {high} "
@@ -68,5 +70,5 @@ STANDARD_BODY = BodyMeasurements(
     crotch_z=-0.10, leg_y=0.09,
     thigh_radius=0.085, knee_z=-0.46, knee_radius=0.055, ankle_z=-0.88, ankle_radius=0.04,
     chest_z=0.36, chest_rx=0.12, chest_ry=0.16,
-    shoulder_z=0.48, shoulder_y=0.19,
+    shoulder_z=0.48, shoulder_y=0.19, neck_z=0.52, neck_radius=0.06,
 )

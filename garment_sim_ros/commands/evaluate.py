@@ -23,6 +23,7 @@ import numpy as np
 from ..cloth.garments import GARMENT_NAMES
 from ..params import PRESETS
 from ..quality import TARGETS
+from .simulate import DECIMATE_HELP, GARMENTS_HELP
 
 HELP = ("Play BVH clips once through on the dressed character, each garment at each playback speed and frame "
         "rate, and judge how well the garments stay on: limb bones through the cloth, trouser legs off their "
@@ -35,23 +36,25 @@ class Run:
     """One evaluation run."""
 
     clip: str  # BVH file
-    garment: str
+    garment: str  # a built-in's name, a spec file or a spec's name in config/garments/
     speed: float  # playback speed, x
     fps: float  # frame rate of the run, Hz
     duration: float | None = None  # body seconds after dressing at most (None: to the clip's end)
     preset: str = "si"
     resolution: float = 1.0
+    decimate: int | None = None  # a mesh file's vertex budget (--decimate)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("clips", nargs="+", metavar="CLIP.bvh", help="BVH clips to play")
-    parser.add_argument("--garments", default="all", help=f"comma-separated, of: {', '.join(GARMENT_NAMES)}; or all")
+    parser.add_argument("--garments", default="all", help=f"{GARMENTS_HELP}; or all (the built-ins)")
     parser.add_argument("--speeds", default="1", help="comma-separated playback speeds (default 1)")
     parser.add_argument("--fps", default="60", help="comma-separated frame rates, Hz (default 60)")
     parser.add_argument("--duration", type=float, default=None,
                         help="play at most this many seconds of each clip after dressing (default: all of it)")
     parser.add_argument("--jobs", type=int, default=1, help="runs in parallel processes (default 1)")
     parser.add_argument("--resolution", type=float, default=1.0, help="garment resolution factor")
+    parser.add_argument("--decimate", type=int, default=None, metavar="VERTICES", help=DECIMATE_HELP)
     parser.add_argument("--preset", default="si", choices=sorted(PRESETS), help="parameter preset")
     parser.add_argument("--json", action="store_true", help="one JSON object per run, then a summary object")
 
@@ -79,7 +82,7 @@ def plan(args) -> list[Run]:
     for clip in args.clips:
         if not Path(clip).is_file():
             raise ValueError(f"no such clip: {clip}")
-    return [Run(clip, garment, speed, fps, args.duration, args.preset, args.resolution)
+    return [Run(clip, garment, speed, fps, args.duration, args.preset, args.resolution, args.decimate)
             for clip in args.clips for garment in garments for speed in speeds for fps in rates]
 
 
@@ -100,7 +103,7 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
 
     tic = time.perf_counter()
     source = bvh_source(run.clip, loop=False, speed=run.speed)
-    character = make_character(source, [run.garment], preset(run.preset), run.resolution)
+    character = make_character(source, [run.garment], preset(run.preset), run.resolution, run.decimate)
     seconds = source.duration if run.duration is None else min(source.duration, run.duration)
     frames = int(math.floor(seconds * run.fps + 1e-9))
     if frames < 1:
@@ -121,7 +124,7 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
                           report.shear_stretch_p99, report.shear_stretch_max)
     worst = stretch.max(axis=0)
     row = {
-        "clip": Path(run.clip).stem, "garment": run.garment, "speed": run.speed, "fps": run.fps, "frames": frames,
+        "clip": Path(run.clip).stem, "garment": character.garment_names[0], "speed": run.speed, "fps": run.fps, "frames": frames,
         "bones_frames": int(np.count_nonzero(bones)), "bones_max": int(bones.max()),
         "limb_tubes": len(character.solvers[0].model.limb_tubes),  # trouser legs: 2 for pants
         "legs_off_frames": int(np.count_nonzero(legs_off)),

@@ -10,6 +10,7 @@ import numpy as np
 
 from ..body.sources import GAITS, bvh_source, procedural_source
 from ..cloth.garments import GARMENT_NAMES
+from ..cloth.spec import parse_garment_list
 from ..params import PRESETS, preset
 
 HELP = ("Dress the procedural walking character (or a BVH clip) and simulate it without ROS, printing "
@@ -17,8 +18,13 @@ HELP = ("Dress the procedural walking character (or a BVH clip) and simulate it 
         "(skeleton, garments, volumes per frame) to an .npz file.")
 
 
+GARMENTS_HELP = (f"comma-separated: built-ins ({', '.join(GARMENT_NAMES)}), garment spec files (*.yaml) or the "
+                 "names of specs in config/garments/")
+DECIMATE_HELP = "reduce a garment mesh file to at most this many vertices first (quadric decimation)"
+
+
 def add_arguments(parser) -> None:
-    parser.add_argument("--garments", default="pants", help=f"comma-separated, of: {', '.join(GARMENT_NAMES)}")
+    parser.add_argument("--garments", default="pants", help=GARMENTS_HELP)
     parser.add_argument("--duration", type=float, default=5.0, help="simulated seconds (default 5)")
     parser.add_argument("--fps", type=float, default=60.0, help="frame rate of the run, Hz (default 60)")
     parser.add_argument("--gait", default="walk", choices=GAITS, help="procedural character's gait")
@@ -31,26 +37,28 @@ def add_arguments(parser) -> None:
     parser.add_argument("--export", default=None, metavar="RUN.npz",
                         help="write the run (skeleton, garments, volumes, every frame) to this .npz file")
     parser.add_argument("--resolution", type=float, default=1.0, help="garment resolution factor")
+    parser.add_argument("--decimate", type=int, default=None, metavar="VERTICES", help=DECIMATE_HELP)
     parser.add_argument("--preset", default="si", choices=sorted(PRESETS), help="parameter preset")
     parser.add_argument("--every", type=int, default=10, help="print every N-th frame (default 10)")
     parser.add_argument("--json", action="store_true", help="one JSON object per printed frame, then a summary")
 
 
-def make_character(source, garments, params, resolution):
-    """Fit a body to ``source``'s rest pose and dress it (the one-piece needs the 15-volume body)."""
+def make_character(source, garments, params, resolution, decimate_to: int | None = None):
+    """Fit a body to ``source``'s rest pose and dress it in ``garments`` (built-in names, spec files or
+    specs); the 15-volume body when a garment's spec asks for it (the one-piece)."""
     from ..body.fitting import fit_body
+    from ..cloth.spec import resolve_garment
     from ..dressing import DressedCharacter
 
-    body = fit_body(source.rest_pose, source.joint_map, detailed="one_piece" in garments)
-    return DressedCharacter(body, garments, params, resolution)
+    specs = [resolve_garment(g) for g in garments]
+    body = fit_body(source.rest_pose, source.joint_map, detailed=any(s.detailed_body for s in specs))
+    return DressedCharacter(body, specs, params, resolution, decimate_to=decimate_to)
 
 
 def parse_garments(text: str) -> list[str]:
-    names = [g.strip() for g in text.split(",") if g.strip()]
-    unknown = [g for g in names if g not in GARMENT_NAMES]
-    if unknown or not names:
-        raise ValueError(f"--garments: unknown {unknown or 'empty list'}; choose from {', '.join(GARMENT_NAMES)}")
-    return names
+    """The ``--garments`` entries, each checked to name a built-in or a valid spec (``SpecError`` if not)."""
+    parse_garment_list(text)
+    return [g.strip() for g in text.split(",") if g.strip()]
 
 
 def simulate_frames(source, character, times):
@@ -93,7 +101,7 @@ def run(args) -> int:
         raise ValueError(f"--export: {args.export!r} must end in .npz")
     params = preset(args.preset)
     source = run_source(args)
-    character = make_character(source, garments, params, args.resolution)
+    character = make_character(source, garments, params, args.resolution, args.decimate)
     frames = int(round(args.duration * args.fps))
     if source.duration is not None:  # a clip that does not loop: the run ends with it
         frames = min(frames, int(math.floor(source.duration * args.fps + 1e-9)))
@@ -108,6 +116,8 @@ def run(args) -> int:
     if not args.json:
         print(f"{source.name}: {', '.join(f'{s.model.name} ({s.model.num_points} points)' for s in character.solvers)}, "
               f"{len(character.body.volumes)} volumes, {args.fps:g} fps, {frames} frames, preset {args.preset}")
+        for note in character.notes:
+            print(f"dressing: {note}")
         if source.dropped_reference_frame:
             print("the clip's frame 0 is a reference pose: dropped (--keep-first-frame plays it)")
         print(f"{'frame':>6} {'t [s]':>7} {'substeps':>8} {'integr. ms':>10} {'correct. ms':>11} {'collision ms':>12} "
@@ -151,7 +161,7 @@ def run(args) -> int:
                       f"{row['stretch_p99']:>6.3f} {penetration * 1e3:>10.3f} {bones:>5} {legs_off:>8} "
                       f"{row['lag_s']:>6.3f}")
         tic = time.perf_counter()
-    summary = {"garments": garments, "frames": frames, "median_frame_ms": float(np.median(totals) * 1e3) if totals else 0.0,
+    summary = {"garments": character.garment_names, "notes": character.notes, "frames": frames, "median_frame_ms": float(np.median(totals) * 1e3) if totals else 0.0,
                "max_penetration_m": worst_penetration, **quality_frames}
     if recorder is not None:
         summary["export"] = str(recorder.save(args.export))

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..body.sources import GAITS, bvh_source, procedural_source
 from ..render import VIEWS, render_character
-from .simulate import parse_garments
+from .simulate import DECIMATE_HELP, parse_garments
 
 HELP = ("Render PNG pictures offscreen: the procedural walking character (or a --bvh clip) dressed and "
         "simulated (no ROS) for --time seconds, one panel per outfit side by side (dressed_<clip>.png); with "
@@ -24,7 +24,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--out", default="docs/images", help="folder for the PNG files (default docs/images)")
     parser.add_argument("--garments", default=DEFAULT_OUTFITS,
                         help="comma-separated outfits, one panel each; '+' joins garments worn together, "
-                             f"e.g. 'pants+short_skirt' (default {DEFAULT_OUTFITS})")
+                             f"e.g. 'pants+short_skirt' (default {DEFAULT_OUTFITS}); a garment is a built-in, "
+                             "a spec file (*.yaml) or a spec's name in config/garments/")
     parser.add_argument("--time", type=float, default=2.0, help="time in the motion the picture shows, s (default 2)")
     parser.add_argument("--view", default="three-quarter", choices=sorted(VIEWS), help="camera direction")
     parser.add_argument("--volumes-only", action="store_true",
@@ -38,6 +39,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--size", default="360x540", help="pixels per panel, WIDTHxHEIGHT (default 360x540)")
     parser.add_argument("--fps", type=float, default=60.0, help="simulation frame rate, Hz (default 60)")
     parser.add_argument("--resolution", type=float, default=1.0, help="garment resolution factor")
+    parser.add_argument("--decimate", type=int, default=None, metavar="VERTICES", help=DECIMATE_HELP)
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -58,12 +60,13 @@ def parse_outfits(text: str) -> list[list[str]]:
     return outfits
 
 
-def dressed_at(source, garments: list[str], time_s: float, fps: float, resolution: float):
+def dressed_at(source, garments: list[str], time_s: float, fps: float, resolution: float,
+               decimate_to: int | None = None):
     """Simulate ``garments`` on ``source`` from t = 0 to ``time_s``; returns (character, pose at time_s)."""
     from ..params import preset
     from .simulate import make_character, simulate_frames
 
-    character = make_character(source, garments, preset("si"), resolution)
+    character = make_character(source, garments, preset("si"), resolution, decimate_to)
     frames = max(1, math.ceil(time_s * fps))
     for _, pose, _ in simulate_frames(source, character, np.linspace(0.0, time_s, frames + 1)):
         pass
@@ -72,7 +75,7 @@ def dressed_at(source, garments: list[str], time_s: float, fps: float, resolutio
 
 def snapshot(out: Path, outfits: list[list[str]] | None, time_s: float, view: str, size: tuple[int, int],
              gait: str = "walk", fps: float = 60.0, resolution: float = 1.0, bvh: str | None = None,
-             canonical: bool = False, keep_first_frame: bool = False) -> Path:
+             canonical: bool = False, keep_first_frame: bool = False, decimate_to: int | None = None) -> Path:
     """Render and save one PNG of the procedural ``gait`` or the ``bvh`` clip: the outfits side by side
     (``dressed_<clip>.png``), or with ``outfits=None`` the body volumes over the skeleton at ``time_s``
     (``volumes_<clip>.png``), or with ``canonical`` on the rest pose (``canonical_<clip>.png``).
@@ -97,11 +100,11 @@ def snapshot(out: Path, outfits: list[list[str]] | None, time_s: float, view: st
         path = out / f"{'canonical' if canonical else 'volumes'}_{clip}.png"
     else:
         for garments in outfits:
-            character, pose = dressed_at(source, garments, time_s, fps, resolution)
+            character, pose = dressed_at(source, garments, time_s, fps, resolution, decimate_to)
             panels.append(render_character(pose, character.body.volumes, source.joint_map, garment_meshes(character),
                                            view=view, width=width, height=height, body_inset_m=BODY_INSET_M))
             points = sum(s.model.num_points for s in character.solvers)
-            labels.append(f"{' + '.join(garments)} ({points} points)")
+            labels.append(f"{' + '.join(character.garment_names)} ({points} points)")
         labels[0] = f"{clip}, t = {time_s:g} s: {labels[0]}"
         path = out / f"dressed_{clip}.png"
     picture = Image.fromarray(np.concatenate(panels, axis=1))
@@ -120,6 +123,6 @@ def run(args) -> int:
         raise ValueError(f"--fps must be in [10, 1000] Hz, got {args.fps}")
     outfits = None if args.volumes_only or args.canonical else parse_outfits(args.garments)
     path = snapshot(Path(args.out), outfits, args.time, args.view, parse_size(args.size), args.gait, args.fps,
-                    args.resolution, args.bvh, args.canonical, args.keep_first_frame)
+                    args.resolution, args.bvh, args.canonical, args.keep_first_frame, args.decimate)
     print(f"wrote {path} ({path.stat().st_size // 1024} KiB)")
     return 0

@@ -55,6 +55,7 @@ import math
 import time
 from collections import Counter
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -66,6 +67,7 @@ from ..body.pose_buffer import MAX_FRAME_SPEED, PoseBuffer, SampleStatus
 from ..body.canonical import canonical_pose, local_transforms
 from ..body.skeleton import Skeleton, SkeletonPose
 from ..cloth.solver import FrameReport
+from ..cloth.spec import resolve_garment
 from ..dressing import DressedCharacter
 from ..params import SolverParams
 
@@ -125,7 +127,8 @@ class CharacterLoop:
 
     def __init__(self, buffer: PoseBuffer, params: SolverParams, garments: Sequence[str], resolution: float,
                  frame_prefix: str = "", root_frame: str = "", joint_map_file: str = "", logger=None,
-                 catch_up_wall_s: float = CATCH_UP_WALL_S, body_file: str = "", on_event=None):
+                 catch_up_wall_s: float = CATCH_UP_WALL_S, body_file: str = "", garment_path: Sequence[str] = (),
+                 on_event=None):
         self.buffer = buffer
         # on_event(level, kind, message): every logged event, unthrottled, but a run of the same kind
         # (a hold logs every frame) only once: the Rerun recording's text log
@@ -136,6 +139,8 @@ class CharacterLoop:
         buffer.jump_distance_m = params.teleport_distance
         self.garments = list(garments)
         self.resolution = float(resolution)
+        self.garment_path = tuple(garment_path)
+        self._spec_stamps: dict[Path, float] = {}  # the dressed garments' spec and mesh files -> mtime
         self.frame_prefix = frame_prefix
         self.root_frame = root_frame
         self.joint_map_file = joint_map_file
@@ -166,12 +171,25 @@ class CharacterLoop:
         if self.character is not None:
             self.character.set_params(params)
 
-    def set_garments(self, garments: Sequence[str], resolution: float) -> None:
+    def set_garments(self, garments: Sequence[str], resolution: float, garment_path: Sequence[str] | None = None) -> None:
         """Wear other garments (or the same at another resolution): re-dressed at the next frame."""
         self.garments = list(garments)
         self.resolution = float(resolution)
+        if garment_path is not None:
+            self.garment_path = tuple(garment_path)
+        self._spec_stamps = {}
         self.character = None
         self._refused = None
+
+    def _specs_changed(self) -> bool:
+        """Whether a dressed garment's spec or mesh file was saved since it was read."""
+        for path, stamp in self._spec_stamps.items():
+            try:
+                if path.stat().st_mtime != stamp:
+                    return True
+            except OSError:
+                return True
+        return False
 
     @property
     def mass_points(self) -> int:
@@ -191,6 +209,9 @@ class CharacterLoop:
         ``time_s`` leads it by the last frame's compute): staleness is judged there."""
         now_s = time_s if now_s is None else now_s
         last_now_s, self._last_now_s = self._last_now_s, now_s
+        if self._specs_changed():  # also after a refused spec: its fix dresses again
+            self._log("info", "spec_changed", "a garment spec or mesh file changed: dressing again")
+            self.set_garments(self.garments, self.resolution)
         if self.character is None:
             return self._dress_when_ready(time_s)
         if time_s <= self.last_time:
@@ -414,12 +435,18 @@ class CharacterLoop:
             bare_map = auto_joint_map(bare, pose.positions)
         joint_map = {role: skeleton.names[bare.index(name)] for role, name in bare_map.items()}
         overrides = load_body_overrides(self.body_file) if self.body_file else None
-        body = fit_body(canonical_pose(pose, joint_map), joint_map, detailed="one_piece" in self.garments,
+        self._spec_stamps = {Path(g): Path(g).stat().st_mtime for g in self.garments if Path(g).is_file()}
+        specs = [resolve_garment(g, self.garment_path) for g in self.garments]
+        self._spec_stamps.update({f: f.stat().st_mtime for s in specs for f in (s.path, s.mesh) if f is not None})
+        body = fit_body(canonical_pose(pose, joint_map), joint_map, detailed=any(s.detailed_body for s in specs),
                         overrides=overrides)
         if body.estimated:
             self._log("warning", "estimated", f"body measurement(s) {', '.join(body.estimated)} were out of human "
                       "range for this skeleton and were estimated from its height; override them with body_file")
-        return DressedCharacter(body, self.garments, self.params, self.resolution), joint_map
+        character = DressedCharacter(body, specs, self.params, self.resolution)
+        for note in character.notes:
+            self._log("warning", "moved_out", note)
+        return character, joint_map
 
     def _bones_settled(self, skeleton: Skeleton, time_s: float, pose: SkeletonPose) -> tuple[str, str]:
         """``("", "")`` if the bones seen at ``time_s`` are those of ``BONE_CHECK_S`` earlier, else a reason

@@ -58,7 +58,8 @@ from .frame_stats import FrameStats
 from .marker_cdr import serialize_marker_array
 from .params_watch import ParamsFileWatch
 from .ros_parameters import descriptor, parameter_type, params_file_from_args, plain, ros_value
-from .settings import ALL_PARAMETERS, PARAMETER_ROWS, SOLVER_PARAMETER_NAMES, is_read_only
+from .settings import (ALL_PARAMETERS, PARAMETER_ROWS, SOLVER_PARAMETER_NAMES, check_garments, garment_folders,
+                       is_read_only)
 from .spinning import spin_until_shutdown
 from .tf_input import IngestResult, TFDecoder, TransformBatch, ingest, ingest_batch, seconds_to_stamp
 
@@ -73,8 +74,8 @@ _TF_STATIC_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
 # ~/markers: transient local, keep last 1: a late RViz gets the garment at once (volatile subscribers,
 # RViz's default, still match); the node publishes at rate_hz while holding too, the held garment.
 _MARKERS_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-_REDRESS_KEYS = ("garments", "resolution")
-_CLEAR_KEYS = ("garments", "resolution", "marker_namespace", "publish_volumes")
+_REDRESS_KEYS = ("garments", "resolution", "garment_path")
+_CLEAR_KEYS = ("garments", "resolution", "garment_path", "marker_namespace", "publish_volumes")
 
 
 class UndeclaredParameters(ParameterNotDeclaredException):
@@ -99,7 +100,8 @@ class GarmentSimNode(Node):
         self.loop = CharacterLoop(self.buffer, self.solver_params, v["garments"], v["resolution"],
                                   frame_prefix=v["frame_prefix"], root_frame=v["root_frame"],
                                   joint_map_file=v["joint_map_file"], body_file=v["body_file"],
-                                  logger=self.get_logger(), on_event=self._on_loop_event)
+                                  logger=self.get_logger(), on_event=self._on_loop_event,
+                                  garment_path=garment_folders(v["garment_path"]))
         self.stats = FrameStats()
         self.input_counts: Counter[str] = Counter()  # transforms stored / of other characters / refused
         self.frame_errors = 0
@@ -185,6 +187,13 @@ class GarmentSimNode(Node):
                 continue
             prepared.append(Parameter(name, parameter_type(PARAMETER_ROWS[name]), ros_value(value)))
             changes[name] = value
+        garment_keys = {"garments", "garment_path"} & changes.keys()
+        if garment_keys:
+            try:  # every garment named must resolve to a built-in or a valid spec
+                check_garments(changes.get("garments", self.values["garments"]),
+                               changes.get("garment_path", self.values["garment_path"]))
+            except ParameterError as err:
+                self._refusals.update({name: str(err) for name in garment_keys})
         solver_changes = {k: v for k, v in changes.items() if k in SOLVER_PARAMETER_NAMES}
         try:
             self.solver_params.replace(**solver_changes)  # the combination must be valid too
@@ -228,7 +237,8 @@ class GarmentSimNode(Node):
             self.solver_params = SolverParams(**{name: self.values[name] for name in SOLVER_PARAMETER_NAMES})
             self.loop.set_params(self.solver_params)
         if any(key in changes for key in _REDRESS_KEYS):
-            self.loop.set_garments(self.values["garments"], self.values["resolution"])
+            self.loop.set_garments(self.values["garments"], self.values["resolution"],
+                                   garment_folders(self.values["garment_path"]))
         if any(key in changes for key in _CLEAR_KEYS):
             self._clear_markers = True
         if self.rerun is not None:

@@ -11,12 +11,28 @@ allowed. The README's parameter section and the node's descriptors are made from
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Sequence
 
 from ..cloth.garments import GARMENT_NAMES, MAX_RESOLUTION
+from ..cloth.spec import SpecError, resolve_garment
 from ..params import PARAMETERS, Param, ParameterError
 
 RERUN_SINKS = ("off", "save", "connect", "serve")
+
+
+def check_garments(entries: Sequence[str], garment_path: str) -> None:
+    """Refuse a ``garments`` entry that is neither a built-in, a valid spec file nor a spec's name in
+    ``garment_path`` (folders separated by ':') or config/garments/: ``ParameterError`` with the reason."""
+    for entry in entries:
+        try:
+            resolve_garment(entry, garment_folders(garment_path))
+        except SpecError as err:
+            raise ParameterError(f"garments: {err}") from None
+
+
+def garment_folders(garment_path: str) -> list[str]:
+    """The ``garment_path`` parameter's folders."""
+    return [p for p in garment_path.split(":") if p]
 
 
 @dataclass(frozen=True)
@@ -47,7 +63,7 @@ class NodeParam(Param):
         if isinstance(self.default, bool):
             return "true or false"
         if isinstance(self.default, list):
-            return "a non-empty list of " + ", ".join(self.choices)
+            return "a non-empty list of " + (", ".join(self.choices) if self.choices else "names")
         if isinstance(self.default, str) and not self.choices:
             return "a string"
         return super().allowed()
@@ -78,8 +94,12 @@ NODE_PARAMETERS: tuple[NodeParam, ...] = (
     NodeParam("rate_hz", 60.0, "Hz", 1.0, 1000.0,
               "frame timer rate; each frame samples the skeleton at T_next = D_last + now"),
     NodeParam("garments", ["pants"], "", None, None,
-              "garments worn, each simulated and published on its own; changing it re-dresses the character",
-              GARMENT_NAMES),
+              "garments worn, each simulated and published on its own: built-ins ("
+              + ", ".join(GARMENT_NAMES) + "), garment spec files (*.yaml) or spec names in garment_path; "
+              "changing it, or saving a worn spec or its mesh, re-dresses the character"),
+    NodeParam("garment_path", "", "", None, None,
+              "folders (separated by ':') searched for NAME.yaml garment specs before config/garments/; "
+              "changing it re-dresses the character"),
     NodeParam("resolution", 1.0, "1", 0.25, MAX_RESOLUTION,
               "garment vertex density (1 = about the memo's sizes); changing it re-dresses the character"),
     # outputs
