@@ -113,6 +113,9 @@ PARAMETERS: tuple[Param, ...] = (
           "c_time of memo Eq. 6-8: share of the step left after a hit that the point moves with the volume"),
     Param("dynamic_switch_ratio", 0.125, "1", 0.0, 100.0,
           "dynamic (swept) handling when the relative trajectory is longer than this x volume radius (memo: 1/8)"),
+    Param("pinch_depth", 0.001, "m", 0.0, 0.1,
+          "a triangle a bone passes through is moved off it unless that puts a point deeper than this into "
+          "another volume (a pinch: a hand on the hip); contact wins there"),
     Param("collision_mode", "adaptive", "", None, None,
           "adaptive (memo §6.2.1), static only or dynamic only", COLLISION_MODES),
 )
@@ -147,6 +150,7 @@ class SolverParams:
     collision_epsilon: float
     contact_time_fraction: float
     dynamic_switch_ratio: float
+    pinch_depth: float
     collision_mode: str
 
     def __post_init__(self):
