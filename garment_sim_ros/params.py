@@ -120,6 +120,9 @@ PARAMETERS: tuple[Param, ...] = (
     Param("max_distance", 0.0, "m", 0.0, 10.0,
           "motion constraints (opt-in safety net): a free point stays within this distance of its skinned "
           "position (rigid on its nearest body volume, bound at dressing); 0: off"),
+    Param("pinch_depth", 0.001, "m", 0.0, 0.1,
+          "a triangle a bone passes through is moved off it unless that puts a point deeper than this into "
+          "another volume (a pinch: a hand on the hip); contact wins there"),
     Param("collision_mode", "adaptive", "", None, None,
           "adaptive (memo §6.2.1), static only or dynamic only", COLLISION_MODES),
 )
@@ -156,6 +159,7 @@ class SolverParams:
     contact_time_fraction: float
     dynamic_switch_ratio: float
     max_distance: float
+    pinch_depth: float
     collision_mode: str
 
     def __post_init__(self):

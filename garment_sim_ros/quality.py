@@ -25,6 +25,7 @@ import numpy as np
 from numba import njit
 
 from .cloth.model import SHEAR, STRUCTURAL
+from .collision.crossing import segment_crosses_triangle, segment_misses_triangle_box
 from .collision.kernels import to_local
 from .transforms import quat_to_matrix
 
@@ -42,40 +43,8 @@ LIMB_BONES: tuple[tuple[str, str, str], ...] = (
 )
 PERCENTILE = 99.0  # the "p99" of the stretch figures
 
-# Barycentric and segment-parameter slack of the crossing test: a bone through a shared edge or
-# vertex exactly must not slip between the two triangles, so boundaries count as crossed.
-_EDGE_SLACK = 1e-9
-# |sine| of the angle between a bone and a triangle's plane below which they count as parallel
-# (a bone lying in the cloth's plane does not pass through it).
-_PARALLEL_SINE = 1e-9
-
 
 # ----------------------------------------------------------------------------- kernels
-
-@njit(cache=True, inline="always")
-def _crosses(px, py, pz, dx, dy, dz, x, a, b, c):
-    """Möller–Trumbore: does the segment ``p + s d`` (0 <= s <= 1) meet triangle (a, b, c) of ``x``?"""
-    e1x, e1y, e1z = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1], x[b, 2] - x[a, 2]
-    e2x, e2y, e2z = x[c, 0] - x[a, 0], x[c, 1] - x[a, 1], x[c, 2] - x[a, 2]
-    hx, hy, hz = dy * e2z - dz * e2y, dz * e2x - dx * e2z, dx * e2y - dy * e2x
-    det = e1x * hx + e1y * hy + e1z * hz
-    # det = d . (e1 x e2): |d| |e1 x e2| times the sine of the angle between d and the plane
-    nx, ny, nz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
-    scale = math.sqrt((dx * dx + dy * dy + dz * dz) * (nx * nx + ny * ny + nz * nz))
-    if abs(det) <= _PARALLEL_SINE * scale:
-        return False
-    inv = 1.0 / det
-    sx, sy, sz = px - x[a, 0], py - x[a, 1], pz - x[a, 2]
-    u = inv * (sx * hx + sy * hy + sz * hz)
-    if u < -_EDGE_SLACK or u > 1.0 + _EDGE_SLACK:
-        return False
-    qx, qy, qz = sy * e1z - sz * e1y, sz * e1x - sx * e1z, sx * e1y - sy * e1x
-    w = inv * (dx * qx + dy * qy + dz * qz)
-    if w < -_EDGE_SLACK or u + w > 1.0 + _EDGE_SLACK:
-        return False
-    s = inv * (e2x * qx + e2y * qy + e2z * qz)
-    return -_EDGE_SLACK <= s <= 1.0 + _EDGE_SLACK
-
 
 @njit(cache=True)
 def segments_through_triangles(starts, ends, x, triangles, crossed):
@@ -88,18 +57,12 @@ def segments_through_triangles(starts, ends, x, triangles, crossed):
     for k in range(starts.shape[0]):
         px, py, pz = starts[k, 0], starts[k, 1], starts[k, 2]
         dx, dy, dz = ends[k, 0] - px, ends[k, 1] - py, ends[k, 2] - pz
-        lo_x, hi_x = min(px, ends[k, 0]), max(px, ends[k, 0])
-        lo_y, hi_y = min(py, ends[k, 1]), max(py, ends[k, 1])
-        lo_z, hi_z = min(pz, ends[k, 2]), max(pz, ends[k, 2])
         crossed[k] = False
         for t in range(triangles.shape[0]):
             a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-            # boxes first: most triangles are nowhere near a bone
-            if (max(x[a, 0], x[b, 0], x[c, 0]) < lo_x - 1e-9 or min(x[a, 0], x[b, 0], x[c, 0]) > hi_x + 1e-9
-                    or max(x[a, 1], x[b, 1], x[c, 1]) < lo_y - 1e-9 or min(x[a, 1], x[b, 1], x[c, 1]) > hi_y + 1e-9
-                    or max(x[a, 2], x[b, 2], x[c, 2]) < lo_z - 1e-9 or min(x[a, 2], x[b, 2], x[c, 2]) > hi_z + 1e-9):
-                continue
-            if _crosses(px, py, pz, dx, dy, dz, x, a, b, c):
+            if segment_misses_triangle_box(x, a, b, c, px, py, pz, ends[k, 0], ends[k, 1], ends[k, 2]):
+                continue  # most triangles are nowhere near a bone
+            if segment_crosses_triangle(px, py, pz, dx, dy, dz, x, a, b, c)[0]:
                 crossed[k] = True
                 count += 1
                 break

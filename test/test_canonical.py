@@ -21,6 +21,7 @@ from garment_sim_ros.body.sources import bvh_source
 from garment_sim_ros.cloth.garments import GARMENT_NAMES, build_garment
 from garment_sim_ros.collision.collider import Collider
 from garment_sim_ros.params import DEFAULT_PARAMS
+from garment_sim_ros.quality import GarmentMeter
 from garment_sim_ros.ros.character_loop import CharacterLoop, Status
 from garment_sim_ros.transforms import yaw_quat
 
@@ -246,10 +247,21 @@ def test_a_headless_run_dresses_again_at_a_loop_seam_instead_of_dragging_the_gar
     assert character.max_penetration() < 1e-3
 
 
+# Limb bones still through the cloth right after dressing, and why (issue 10, item 6; measured):
+# in cmu_131's first pose the right forearm bone dips 1 mm into the hip volume (the subject is slimmer
+# than the fitted hips), and the garments but the one-piece have no forearm volume to keep cloth off it;
+# on CC 02_04 the one-piece's triangles between the left upper arm and the chest can only clear the
+# bone 6 mm deep in another volume (measured with pinch_depth 1 cm), deeper than pinch_depth: contact
+# wins (collision.crossing).
+DRESSING_PINCHES = {("cmu_131_01_walk_mjstyle.bvh", garment): {"right_forearm"} for garment in GARMENT_NAMES}
+DRESSING_PINCHES[("cc_cmu_02_04_jump_balance.bvh", "one_piece")] = {"left_upper_arm"}
+
+
 @pytest.mark.parametrize("clip_name", CLIPS)
-def test_right_after_dressing_no_free_point_is_inside_the_body(clip_name):
+def test_right_after_dressing_no_free_point_is_inside_the_body_and_no_limb_bone_crosses_the_cloth(clip_name):
     """Dressing goes through the canonical pose, where every garment clears every volume, onto the clip's
-    first pose with collision handling all the way: every garment starts outside the body on every clip."""
+    first pose with collision handling all the way: every garment starts outside the body on every clip,
+    and no limb bone crosses it but the measured pinches above."""
     from garment_sim_ros.cloth.solver import FrameReport
     from garment_sim_ros.commands.simulate import make_character
     from garment_sim_ros.params import preset
@@ -262,6 +274,9 @@ def test_right_after_dressing_no_free_point_is_inside_the_body(clip_name):
         report = FrameReport()
         character.measure([report], pose)
         assert report.max_depth_m < 1e-3, (garment, report.max_depth_m)
+        meter = GarmentMeter(character.solvers[0].model, character.body.volumes, character.joint_map)
+        crossed = set(meter.bones_through(character.world_positions()[0], pose))
+        assert crossed <= DRESSING_PINCHES.get((clip_name, garment), set()), (garment, crossed)
 
 
 def test_a_guard_recovery_dresses_through_the_canonical_pose_and_the_next_frame_is_clean():

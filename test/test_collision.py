@@ -458,3 +458,94 @@ def test_bad_input_is_refused_with_a_clear_message():
         c.begin_substep(0.5, 0.5)
     with pytest.raises(ValueError, match="cache_size"):
         Collider(VolumeSet((sphere(),)), 2, cache_size=3)
+
+
+# ----------------------------------------------------------------------------- bones through triangles
+
+def forearm(bone=(-0.12, 0.12)):
+    """An upright limb: 3 cm radius, its bone along local z."""
+    return Volume("forearm", ELLIPSOID, "f", (0.03, 0.03, 0.15), (-0.14, 0.14), bone=bone)
+
+
+# a level 10 x 16 cm strip centred at (x0, 0, 0): two triangles, its points 8 cm either side of the x axis
+STRIP_TRIANGLES = np.array([[0, 1, 2], [1, 3, 2]], dtype=np.int64)
+
+
+def strip(x0):
+    return np.array([[x0 - 0.05, -0.08, 0.0], [x0 - 0.05, 0.08, 0.0], [x0 + 0.05, -0.08, 0.0], [x0 + 0.05, 0.08, 0.0]])
+
+
+def bone_through_strip(x, centre):
+    from garment_sim_ros.quality import segments_through_triangles
+
+    starts, ends = np.array([centre + [0.0, 0.0, -0.12]]), np.array([centre + [0.0, 0.0, 0.12]])
+    return segments_through_triangles(starts, ends, np.ascontiguousarray(x), STRIP_TRIANGLES, np.zeros(1, bool)) == 1
+
+
+def sweep(collider, x_start, x):
+    """Point and edge handling, then the bones against the triangles, as the solver does after a substep.
+    Returns the points before the bone test, the triangles it moved and the velocities."""
+    v, inv_mass = np.zeros_like(x), np.ones(len(x))
+    edges = np.array([[0, 1], [1, 3], [3, 2], [2, 0], [1, 2]])
+    rest = np.linalg.norm(x_start[edges[:, 0]] - x_start[edges[:, 1]], axis=1)
+    collider.handle_all(x_start, x, v, inv_mass, H)
+    collider.handle_edges(x_start, x, inv_mass, edges, rest)
+    before = x.copy()
+    moved = collider.handle_axes(x_start, x, v, inv_mass, STRIP_TRIANGLES, H)
+    return before, moved, v
+
+
+def test_a_limb_swept_between_two_cloth_points_pushes_the_cloth_instead_of_passing_through():
+    """An upright limb moves 10 cm into a level strip through its leading edge, whose points lie 8 cm
+    either side of its path: no point is ever within its 3 cm radius, so point (and edge) handling leave
+    the cloth where it was, with the bone through it. The bone test moves the strip off the bone, ahead
+    of the limb (the side it was on), outside the volume, and it moves with the limb."""
+    start, end = np.array([-0.1, 0.0, 0.0]), np.zeros(3)
+    c = make_collider([forearm()], 4, start, pos1=end, collision_epsilon=0.003)
+    x_start = strip(0.0)
+    x = x_start.copy()
+    before, moved, v = sweep(c, x_start, x)
+    assert np.array_equal(before, x_start) and bone_through_strip(before, end)  # point handling misses it
+    assert moved >= 1 and not bone_through_strip(x, end)
+    assert np.all(x[:, 0] >= 0.003 - 1e-12)  # ahead of the bone by eps at least
+    assert np.allclose(x[:, 1:], x_start[:, 1:])  # pushed along the sweep, not sideways
+    assert np.all(c.penetration_depths(x) == 0.0)
+    pushed = x[:, 0] < 0.01
+    assert np.allclose(v[pushed, 0], 0.1 / H)  # the pushed edge moves on with the limb, no faster
+
+
+def test_a_strip_that_slides_over_a_still_limb_goes_back_to_the_side_it_came_from():
+    c = make_collider([forearm()], 4, [0.0, 0.0, 0.0], collision_epsilon=0.003)
+    x_start, x = strip(0.1), strip(0.0)  # its leading edge from in front of the limb to behind it
+    before, _, _ = sweep(c, x_start, x)
+    assert bone_through_strip(before, np.zeros(3))
+    assert not bone_through_strip(x, np.zeros(3)) and np.all(x[:, 0] >= 0.003 - 1e-12)
+
+
+def test_a_volume_without_a_bone_is_not_tested():
+    c = make_collider([forearm(bone=None)], 4, [-0.1, 0.0, 0.0], pos1=[0.0, 0.0, 0.0])
+    x_start = strip(0.0)
+    x = x_start.copy()
+    _, moved, _ = sweep(c, x_start, x)
+    assert moved == 0 and np.array_equal(x, x_start)
+
+
+@pytest.mark.parametrize("pinch_depth", [0.001, 0.05])
+def test_in_a_pinch_contact_wins_beyond_pinch_depth(pinch_depth):
+    """A thin hip round the limb's end position: the only place off the bone on the strip's side is inside
+    the hip, about 1 cm deep. Past ``pinch_depth`` the strip is left where it is (contact over crossing):
+    no point goes deeper than that into the hip; with room enough the bone leaves the strip."""
+    hip = Volume("hip", ELLIPSOID, "f", (0.015, 0.3, 0.3))
+    end = np.zeros(3)
+    c = make_collider([forearm(), hip], 4, [[-0.1, 0.0, 0.0], [0.0, 0.0, 0.0]], pos1=[end, end],
+                      collision_epsilon=0.003, pinch_depth=pinch_depth)
+    x_start = strip(0.0)
+    x = x_start.copy()
+    before, _, _ = sweep(c, x_start, x)
+    assert np.array_equal(before, x_start) and bone_through_strip(before, end)
+    depth = c.penetration_depths(x)
+    assert np.all(depth <= pinch_depth)
+    if pinch_depth < 0.005:
+        assert np.array_equal(x, before) and bone_through_strip(x, end)
+    else:
+        assert not bone_through_strip(x, end) and depth.max() > 0.005  # the cloth is in the pinch

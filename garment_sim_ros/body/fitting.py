@@ -42,7 +42,7 @@ pose the legs are splayed about 20 deg, while garments are fitted to a standing 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Mapping
 
 import numpy as np
@@ -182,14 +182,16 @@ class _Fit:
         )
 
     def volume(self, name: str, frame_role: str, start: np.ndarray, axis: np.ndarray, s0: float, s1: float,
-               rx: float, ry: float, taper: float) -> Volume:
-        """Ellipsoid over ``[s0, s1]`` along ``axis`` from ``start`` (world), cut a little past both ends."""
+               rx: float, ry: float, taper: float, bone: bool = False) -> Volume:
+        """Ellipsoid over ``[s0, s1]`` along ``axis`` from ``start`` (world), cut a little past both ends;
+        ``bone``: that span is a bone the cloth may not cross (``Volume.bone``)."""
         unit = _unit(axis)
         half = 0.5 * (s1 - s0)
         a_z = half / math.sqrt(1.0 - taper**2)
         past = CUT_PAST_JOINT * half
-        return self.attach(name, ELLIPSOID, frame_role, start + unit * 0.5 * (s0 + s1), unit, (rx, ry, a_z),
-                           (-half - past, half + past))
+        volume = self.attach(name, ELLIPSOID, frame_role, start + unit * 0.5 * (s0 + s1), unit, (rx, ry, a_z),
+                             (-half - past, half + past))
+        return replace(volume, bone=(-half, half)) if bone else volume
 
     def bone(self, role: str, next_role: str | None, fallback_length: float) -> tuple[np.ndarray, np.ndarray]:
         """Start and end (world) of the segment starting at ``role``."""
@@ -204,7 +206,7 @@ class _Fit:
         """A limb volume of ``radius`` (m, mid-bone), narrower sideways if ``width`` (its half width) is less."""
         length = float(np.linalg.norm(end - start))
         ry = radius if width is None else min(radius, width)
-        return self.volume(name, name, start, end - start, 0.0, length, radius, ry, JOINT_TAPER)
+        return self.volume(name, name, start, end - start, 0.0, length, radius, ry, JOINT_TAPER, bone=True)
 
 
 class _Plausibility:
@@ -281,7 +283,7 @@ def _fit_volumes(fit: _Fit, detailed: bool) -> tuple[list[Volume], dict[str, flo
     torso_length = float(np.linalg.norm(chest - spine_start))
     if torso_length > 1e-6:
         volumes.append(fit.volume("torso", spine_role, spine_start, chest - spine_start, 0.0, torso_length,
-                                  WAIST_DEPTH_PER_WIDTH * waist_ry, waist_ry, TRUNK_TAPER))
+                                  WAIST_DEPTH_PER_WIDTH * waist_ry, waist_ry, TRUNK_TAPER, bone=True))
     else:  # the chest joint sits at the pelvis: the torso stands upright from there to the waist
         volumes.append(fit.volume("torso", "pelvis", chest, fit.up, 0.0, waist_rise, WAIST_DEPTH_PER_WIDTH * waist_ry,
                                   waist_ry, TRUNK_TAPER))

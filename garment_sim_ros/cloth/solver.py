@@ -211,6 +211,7 @@ class GarmentSolver:
         self._correct_count = model.num_correction_springs
         self._edges = np.ascontiguousarray(model.springs[model.spring_kinds == STRUCTURAL])
         self._edge_rest = np.ascontiguousarray(model.rest_lengths[model.spring_kinds == STRUCTURAL])
+        self._triangles = np.ascontiguousarray(model.triangles, dtype=np.int64)
         self.collider = None
         self.skin: SkinBinding | None = None  # bound by ``reset`` (motion constraints, ``max_distance``)
         if volumes is not None and len(volumes):
@@ -349,14 +350,17 @@ class GarmentSolver:
             report.integration_s += tac - tic
             if collider is not None:
                 collider.handle_all(self._x_start, x, v, const.inv_mass, h)
-                # Edges a limb cuts into go back out (beyond the memo), then the points that put into a
-                # volume are handled again: the cached contacts, then -- once more, as an edge moved off
-                # one volume can meet its neighbour -- the edges and every point against every volume,
-                # so that the substep still ends with no point inside. No edge moved: nothing to redo.
-                if collider.handle_edges(self._x_start, x, const.inv_mass, self._edges, self._edge_rest):
+                # Triangles a bone passes through go back to their side of it, edges a limb cuts into go back
+                # out (both beyond the memo), then the points that put into a volume are handled again: the
+                # cached contacts, then -- once more, as an edge moved off one volume can meet its neighbour --
+                # the edges and every point against every volume, and the bones last, so that a pinch ends
+                # with the cloth on its side of the bone (collision.crossing). Nothing moved: nothing to redo.
+                crossed = collider.handle_axes(self._x_start, x, v, const.inv_mass, self._triangles, h)
+                if collider.handle_edges(self._x_start, x, const.inv_mass, self._edges, self._edge_rest) or crossed:
                     collider.handle_contacts(x, v, const.inv_mass, h, self._x_start)
                     collider.handle_edges(self._x_start, x, const.inv_mass, self._edges, self._edge_rest)
                     collider.handle_all(self._x_start, x, v, const.inv_mass, h)
+                    collider.handle_axes(self._x_start, x, v, const.inv_mass, self._triangles, h)
                 report.collision_s += clock() - tac
         if collider is not None:
             report.static_hits = collider.static_hits

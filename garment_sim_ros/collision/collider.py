@@ -12,13 +12,15 @@ from __future__ import annotations
 import numpy as np
 
 from ..params import DEFAULT_PARAMS, SolverParams
-from . import kernels
+from . import crossing, kernels
 from .volumes import VolumeSet
 
 # ``parallel=None``: handle_all and handle_contacts spread the points over numba's threads from this many
 # points on. Measured (docs/benchmarks.md): 2 threads pay from ~2 000 points (handle_all 0.18 against 0.43 ms
 # per call), lose a little at 720; with one thread the parallel kernels cost what the serial ones do.
 PARALLEL_MIN_POINTS = 1500
+# handle_axes: passes over the triangles at most; moving a crossed triangle off a bone can cross a neighbour
+AXIS_PASSES = 16
 _MODES = {"adaptive": kernels.MODE_ADAPTIVE, "static": kernels.MODE_STATIC, "dynamic": kernels.MODE_DYNAMIC}
 
 
@@ -41,6 +43,7 @@ class Collider:
         self._cuts = np.ascontiguousarray(volumes.cuts, dtype=np.float64)
         self._bounding_radii = np.ascontiguousarray(volumes.bounding_radii, dtype=np.float64)
         self._switch_radii = np.ascontiguousarray(volumes.switch_radii, dtype=np.float64)
+        self._bones = np.ascontiguousarray(volumes.bones, dtype=np.float64)
         # frame poses (quaternions) and the substep's end poses (matrices) for the kernels
         self._frame_pos = np.zeros((2, n_volumes, 3))
         self._frame_quat = np.zeros((2, n_volumes, 4))
@@ -65,6 +68,8 @@ class Collider:
         self.parallel = bool(parallel)
         self._last_h = 0.0
         self._checked_edges = None  # the last edge array handle_edges validated
+        self._checked_triangles = None  # the last triangle array handle_axes validated
+        self._corners = np.zeros((3, 3))  # handle_axes' scratch
         self.use_broad_phase = True  # off only to check that it changes nothing
         self.static_hits = 0
         self.dynamic_hits = 0
@@ -75,6 +80,7 @@ class Collider:
     def set_params(self, params: SolverParams) -> None:
         self._friction = float(params.friction)
         self._eps = float(params.collision_epsilon)
+        self._pinch_depth = float(params.pinch_depth)
         self._c_time = float(params.contact_time_fraction)
         self._switch_ratio = float(params.dynamic_switch_ratio)
         self._mode = _MODES[params.collision_mode]
@@ -186,6 +192,27 @@ class Collider:
                                         self.substep_start_positions, self.substep_start_rotations,
                                         self.substep_end_positions, self.substep_end_rotations,
                                         edges, rest_lengths, x_start, x, np.asarray(inv_mass, dtype=np.float64)))
+
+    def handle_axes(self, x_start, x, v, inv_mass, triangles, h: float) -> int:
+        """Move cloth triangles (T, 3) that a volume's axis (its bone) passes through off it, to the
+        volume's surface on the side they came from (``x_start``: substep start; see
+        ``crossing.handle_axes``); x and v in place. Returns the number of triangles moved."""
+        self._check_points(x, v, inv_mass)
+        if not isinstance(x_start, np.ndarray) or x_start.shape != x.shape or x_start.dtype != np.float64:
+            raise ValueError(f"Collider.handle_axes: x_start must be a float64 array of shape {x.shape}")
+        if triangles is not self._checked_triangles:  # the solver passes the same array every substep
+            if (not isinstance(triangles, np.ndarray) or triangles.ndim != 2 or triangles.shape[1] != 3
+                    or triangles.dtype != np.int64
+                    or (triangles.size and not 0 <= triangles.min() <= triangles.max() < self.n_points)):
+                raise ValueError(f"Collider.handle_axes: triangles must be an int64 (T, 3) array of point indices "
+                                 f"below {self.n_points}")
+            self._checked_triangles = triangles
+        return int(crossing.handle_axes(self._kinds, self._radii, self._cuts, self._bounding_radii, self._bones,
+                                        self.substep_start_positions, self.substep_start_rotations,
+                                        self.substep_end_positions, self.substep_end_rotations,
+                                        triangles, x_start, x, v, inv_mass, float(h), self._eps, self._pinch_depth,
+                                        AXIS_PASSES,
+                                        self._corners))
 
     def penetration_depths(self, x) -> np.ndarray:
         """(N,) metres inside the deepest volume at the substep-end poses, 0 outside.

@@ -36,6 +36,9 @@ class Volume:
     cut: tuple[float, float] = (-np.inf, np.inf)  # ELLIPSOID only: kept z range, local metres
     offset_position: tuple[float, float, float] = (0.0, 0.0, 0.0)
     offset_rotation: tuple[float, float, float, float] = tuple(IDENTITY_QUAT)
+    # local z range of the bone the volume is fitted round (limbs, the spine), on its local z axis; None: none.
+    # A bone may not pass through the cloth (``crossing.handle_axes``).
+    bone: tuple[float, float] | None = None
 
     def __post_init__(self):
         if self.kind not in (SPHERE, ELLIPSOID, CAPSULE):
@@ -50,6 +53,10 @@ class Volume:
             raise ValueError(f"volume {self.name!r}: cut must satisfy cut[0] < cut[1], got {self.cut}")
         if self.kind == ELLIPSOID and (hi <= -radii[2] or lo >= radii[2]):
             raise ValueError(f"volume {self.name!r}: cut {self.cut} leaves nothing of an ellipsoid with a_z={radii[2]}")
+        if self.bone is not None and not (len(self.bone) == 2 and np.all(np.isfinite(self.bone))
+                                          and self.bone[0] < self.bone[1]):
+            raise ValueError(f"volume {self.name!r}: bone must be None or a local z range (lo, hi), lo < hi, "
+                             f"got {self.bone}")
         q = np.asarray(self.offset_rotation, dtype=float)
         if q.shape != (4,) or abs(np.linalg.norm(q) - 1.0) > 1e-6:
             raise ValueError(f"volume {self.name!r}: offset_rotation must be a unit quaternion (x, y, z, w)")
@@ -87,6 +94,7 @@ class VolumeSet:
     cuts: np.ndarray = field(init=False)  # (V, 2)
     bounding_radii: np.ndarray = field(init=False)  # (V,)
     switch_radii: np.ndarray = field(init=False)  # (V,)
+    bones: np.ndarray = field(init=False)  # (V, 2) local z range of each volume's bone, m; NaN: none
     offset_positions: np.ndarray = field(init=False)  # (V, 3)
     offset_rotations: np.ndarray = field(init=False)  # (V, 4)
 
@@ -106,6 +114,8 @@ class VolumeSet:
         set_(self, "cuts", np.array([v.cut for v in self.volumes], dtype=float).reshape(-1, 2))
         set_(self, "bounding_radii", np.array([v.bounding_radius for v in self.volumes], dtype=float))
         set_(self, "switch_radii", np.array([v.radius for v in self.volumes], dtype=float))
+        set_(self, "bones", np.array([v.bone if v.bone is not None else (np.nan, np.nan) for v in self.volumes],
+                                     dtype=float).reshape(-1, 2))
         set_(self, "offset_positions", np.array([v.offset_position for v in self.volumes], dtype=float).reshape(-1, 3))
         set_(self, "offset_rotations", quat_normalize(
             np.array([v.offset_rotation for v in self.volumes], dtype=float).reshape(-1, 4)))

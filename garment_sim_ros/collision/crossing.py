@@ -1,0 +1,265 @@
+"""Numba kernels: limb bones through cloth triangles (beyond the memo, which handles mass points only).
+
+A limb can pass *between* cloth points: every point stays outside the volumes while a triangle
+spans the limb, its plane cut by the bone. Point (``kernels.handle_all``) and edge
+(``kernels.handle_edges``) handling do not see it, and once the bone is through, no later contact
+pushes the cloth back: the limb is outside the garment. ``handle_axes`` tests the bone of every
+volume that has one (``Volume.bone``: limbs and the spine, on the volume's local z axis) against
+the garment's triangles at the substep's end. A crossed triangle goes back to the side of the bone
+it was on at the substep's start (``_side_direction``: the continuous information the end state
+lacks), with the least move that takes the bone out of it seen along the bone: each corner short
+of ``eps`` on that side goes there, a corner already there stays; a corner so moved that is inside
+the limb goes out across its surface radially, so it stays on its side.
+
+Priority in a pinch (a forearm on the hip, an arm against the chest: two volumes overlap and
+squeeze the cloth): the cloth goes no further than where the other volume begins (``_room``), and a
+triangle that could only clear the bone with a corner deeper than ``pinch_depth`` in another volume
+is left crossed: contact wins over crossing, so the depth the pinch costs is bounded by
+``pinch_depth``. Where the bodies' volumes overlap more than that round a bone (a wrist inside the
+hip volume), no cloth position is both outside the volumes and off the bone.
+
+``segment_crosses_triangle`` is the crossing test of the metric as well (``quality``), so both
+agree on what "through" means.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .kernels import (capsule_entry, kernel, penetration_depth, quadric_entry, rotate, static_projection,
+                      surface_velocity, to_local, to_world)
+from .volumes import CAPSULE
+
+# Barycentric and segment-parameter slack of the crossing test: a bone through a shared edge or
+# vertex exactly must not slip between the two triangles, so boundaries count as crossed.
+_EDGE_SLACK = 1e-9
+# |sine| of the angle between a bone and a triangle's plane below which they count as parallel
+# (a bone lying in the cloth's plane does not pass through it).
+_PARALLEL_SINE = 1e-9
+_TINY = 1e-12
+# a crossed triangle leaves along its normal when the normal's part across the bone is at least this (sine)
+_ACROSS = 0.3
+
+
+@kernel
+def segment_crosses_triangle(px, py, pz, dx, dy, dz, x, a, b, c):
+    """Möller–Trumbore: where the segment ``p + s d`` (0 <= s <= 1) meets triangle (a, b, c) of ``x``.
+
+    Returns ``(crosses, s, u, w)``: the point is ``x[a] + u (x[b] - x[a]) + w (x[c] - x[a])``. A segment
+    through an edge or a vertex crosses; one parallel to the triangle's plane (in it or not) does not."""
+    e1x, e1y, e1z = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1], x[b, 2] - x[a, 2]
+    e2x, e2y, e2z = x[c, 0] - x[a, 0], x[c, 1] - x[a, 1], x[c, 2] - x[a, 2]
+    hx, hy, hz = dy * e2z - dz * e2y, dz * e2x - dx * e2z, dx * e2y - dy * e2x
+    det = e1x * hx + e1y * hy + e1z * hz
+    # det = d . (e1 x e2): |d| |e1 x e2| times the sine of the angle between d and the plane
+    nx, ny, nz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+    scale = math.sqrt((dx * dx + dy * dy + dz * dz) * (nx * nx + ny * ny + nz * nz))
+    if abs(det) <= _PARALLEL_SINE * scale:
+        return False, 0.0, 0.0, 0.0
+    inv = 1.0 / det
+    sx, sy, sz = px - x[a, 0], py - x[a, 1], pz - x[a, 2]
+    u = inv * (sx * hx + sy * hy + sz * hz)
+    if u < -_EDGE_SLACK or u > 1.0 + _EDGE_SLACK:
+        return False, 0.0, 0.0, 0.0
+    qx, qy, qz = sy * e1z - sz * e1y, sz * e1x - sx * e1z, sx * e1y - sy * e1x
+    w = inv * (dx * qx + dy * qy + dz * qz)
+    if w < -_EDGE_SLACK or u + w > 1.0 + _EDGE_SLACK:
+        return False, 0.0, 0.0, 0.0
+    s = inv * (e2x * qx + e2y * qy + e2z * qz)
+    return -_EDGE_SLACK <= s <= 1.0 + _EDGE_SLACK, s, u, w
+
+
+@kernel
+def segment_misses_triangle_box(x, a, b, c, px, py, pz, qx, qy, qz):
+    """True when the bounding boxes of segment p -> q and triangle (a, b, c) of ``x`` are apart (1 nm slack):
+    then the segment cannot cross the triangle. Most triangles are nowhere near a bone."""
+    return (max(x[a, 0], x[b, 0], x[c, 0]) < min(px, qx) - 1e-9 or min(x[a, 0], x[b, 0], x[c, 0]) > max(px, qx) + 1e-9
+            or max(x[a, 1], x[b, 1], x[c, 1]) < min(py, qy) - 1e-9 or min(x[a, 1], x[b, 1], x[c, 1]) > max(py, qy) + 1e-9
+            or max(x[a, 2], x[b, 2], x[c, 2]) < min(pz, qz) - 1e-9 or min(x[a, 2], x[b, 2], x[c, 2]) > max(pz, qz) + 1e-9)
+
+
+@kernel
+def _normal(x, a, b, c):
+    """Unnormalised normal (b - a) x (c - a) of triangle (a, b, c) of ``x``."""
+    e1x, e1y, e1z = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1], x[b, 2] - x[a, 2]
+    e2x, e2y, e2z = x[c, 0] - x[a, 0], x[c, 1] - x[a, 1], x[c, 2] - x[a, 2]
+    return e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+
+
+@kernel
+def _crossed_at_start(bones, pos0, rot0, v, xs, a, b, c):
+    z0, z1 = bones[v, 0], bones[v, 1]
+    px, py, pz = to_world(pos0, rot0, v, 0.0, 0.0, z0)
+    qx, qy, qz = to_world(pos0, rot0, v, 0.0, 0.0, z1)
+    return segment_crosses_triangle(px, py, pz, qx - px, qy - py, qz - pz, xs, a, b, c)[0]
+
+
+@kernel
+def _clearing(corners, ux, uy, clearance):
+    """How far, in all, the corners (3, 3 local) move to lie ``clearance`` or more along (ux, uy)."""
+    total = 0.0
+    for k in range(3):
+        total += max(0.0, clearance - (corners[k, 0] * ux + corners[k, 1] * uy))
+    return total
+
+
+@kernel
+def _side_direction(bones, pos0, rot0, pos1, rot1, v, z, triangles, t, u, w, xs, x, corners, clearance):
+    """Unit local direction (ux, uy), across volume v's axis at height z, towards the side of the bone
+    triangle t was on at the substep's start. ``corners`` (3, 3): its corners, local, at the end pose.
+
+    A triangle the bone already crossed at the start takes the shortest way out (across its nearest
+    edge, seen along the bone). Else the side is the one of the triangle's plane the axis point was on at
+    the start (``xs``, start pose): the triangle goes along its normal, away from the axis, which keeps a
+    fold round the bone (two triangles meeting at an edge the bone slipped through) together: both go
+    out of the fold. A triangle nearly square to the bone (speared by it) cannot leave along its normal:
+    it goes towards where its crossed point was at the start, seen from the axis."""
+    a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+    if _crossed_at_start(bones, pos0, rot0, v, xs, a, b, c):
+        best, ux, uy = math.inf, 1.0, 0.0
+        for k in range(3):
+            ex, ey = corners[(k + 1) % 3, 0] - corners[k, 0], corners[(k + 1) % 3, 1] - corners[k, 1]
+            length = math.sqrt(ex * ex + ey * ey)
+            if length < _TINY:
+                continue
+            nx, ny = ey / length, -ex / length
+            if nx * corners[k, 0] + ny * corners[k, 1] > 0.0:  # from the edge towards the axis
+                nx, ny = -nx, -ny
+            cost = _clearing(corners, nx, ny, clearance)
+            if cost < best:
+                best, ux, uy = cost, nx, ny
+        return ux, uy
+    wa = 1.0 - u - w
+    sx, sy, sz = (wa * xs[a, 0] + u * xs[b, 0] + w * xs[c, 0], wa * xs[a, 1] + u * xs[b, 1] + w * xs[c, 1],
+                  wa * xs[a, 2] + u * xs[b, 2] + w * xs[c, 2])
+    ax, ay, az = to_world(pos0, rot0, v, 0.0, 0.0, z)
+    n0x, n0y, n0z = _normal(xs, a, b, c)
+    side = n0x * (ax - sx) + n0y * (ay - sy) + n0z * (az - sz)  # > 0: the axis was in front of the triangle
+    nx, ny, nz = _normal(x, a, b, c)
+    norm = math.sqrt(nx * nx + ny * ny + nz * nz)
+    if norm > _TINY and side != 0.0:
+        sign = -1.0 if side > 0.0 else 1.0
+        lx, ly, _ = to_local(pos1, rot1, v, pos1[v, 0] + sign * nx / norm, pos1[v, 1] + sign * ny / norm,
+                             pos1[v, 2] + sign * nz / norm)
+        across = math.sqrt(lx * lx + ly * ly)
+        if across > _ACROSS:
+            return lx / across, ly / across
+    ox, oy, _ = to_local(pos0, rot0, v, sx, sy, sz)
+    off = math.sqrt(ox * ox + oy * oy)
+    if off < _TINY:
+        return 1.0, 0.0
+    return ox / off, oy / off
+
+
+@kernel
+def _room(kinds, radii, cuts, bounding_radii, pos, rot, v, lx, ly, lz, ux, uy, length):
+    """How far from volume v's local point l the cloth can go along the local (ux, uy, 0), up to
+    ``length``, before it enters another volume; a volume l is inside already (the neighbour at a joint)
+    does not stop it. In a pinch (a forearm on the hip) the cloth between the two stays between them."""
+    ax, ay, az = to_world(pos, rot, v, lx, ly, lz)
+    bx, by, bz = to_world(pos, rot, v, lx + length * ux, ly + length * uy, lz)
+    room = length
+    for o in range(kinds.shape[0]):
+        if o == v or (ax - pos[o, 0]) ** 2 + (ay - pos[o, 1]) ** 2 + (az - pos[o, 2]) ** 2 > (
+                bounding_radii[o] + length) ** 2:
+            continue
+        px, py, pz = to_local(pos, rot, o, ax, ay, az)
+        qx, qy, qz = to_local(pos, rot, o, bx, by, bz)
+        if kinds[o] == CAPSULE:
+            alpha = capsule_entry(radii, o, px, py, pz, qx, qy, qz)
+        else:
+            alpha = quadric_entry(kinds[o], radii, cuts, o, px, py, pz, qx, qy, qz)
+        if alpha >= 0.0:
+            room = min(room, alpha * length)
+    return room
+
+
+@kernel
+def _depth_elsewhere(kinds, radii, cuts, bounding_radii, pos, rot, v, px, py, pz):
+    """Depth (m) of the simulation-frame point p in the deepest volume other than v."""
+    deepest = 0.0
+    for o in range(kinds.shape[0]):
+        if o == v or (px - pos[o, 0]) ** 2 + (py - pos[o, 1]) ** 2 + (pz - pos[o, 2]) ** 2 > bounding_radii[o] ** 2:
+            continue
+        lx, ly, lz = to_local(pos, rot, o, px, py, pz)
+        deepest = max(deepest, penetration_depth(kinds[o], radii, cuts, o, lx, ly, lz))
+    return deepest
+
+
+@kernel
+def _push_off_axis(kinds, radii, cuts, bounding_radii, bones, pos0, rot0, pos1, rot1, v, z, triangles, t, u, w,
+                   xs, x, vel, inv_mass, h, eps, pinch_depth, corners):
+    """Move triangle t, crossed by volume v's axis at local height z (barycentric u, w), off the bone to
+    its side (unit local direction (ux, uy), ``_side_direction``): each corner short of ``eps`` along it
+    goes there -- the least move that takes the bone out of the triangle, seen along the bone; a corner
+    already on that side stays. A corner so moved that is inside v goes out across v's surface, radially
+    (it stays on its side), but not into another volume (``_room``: a pinch); an approaching velocity
+    relative to v's surface is removed. A triangle with an attached corner is left as it is (it rides on
+    the body), and so is one that would end with a corner deeper than ``pinch_depth`` in another volume: where two volumes overlap
+    more than that round a bone there is no room for cloth, and contact wins. Returns whether it moved."""
+    if inv_mass[triangles[t, 0]] == 0.0 or inv_mass[triangles[t, 1]] == 0.0 or inv_mass[triangles[t, 2]] == 0.0:
+        return False  # it rides on the body with its attached corner: moving the others would only tear it
+    for k in range(3):
+        i = triangles[t, k]
+        corners[k, 0], corners[k, 1], corners[k, 2] = to_local(pos1, rot1, v, x[i, 0], x[i, 1], x[i, 2])
+    ux, uy = _side_direction(bones, pos0, rot0, pos1, rot1, v, z, triangles, t, u, w, xs, x, corners, eps)
+    for k in range(3):  # where each corner goes, in the simulation frame (corners[k] is then world)
+        lx, ly, lz = corners[k, 0], corners[k, 1], corners[k, 2]
+        short = eps - (lx * ux + ly * uy)
+        if short > 0.0:
+            lx, ly = lx + short * ux, ly + short * uy
+            inside, sx, sy, sz, nx, ny, nz = static_projection(kinds[v], radii, cuts, v, lx, ly, lz)
+            if inside:
+                out = math.sqrt((sx - lx) ** 2 + (sy - ly) ** 2) + eps
+                radial = math.sqrt(lx * lx + ly * ly)  # >= eps: it is on the side now
+                rx, ry = lx / radial, ly / radial
+                out = _room(kinds, radii, cuts, bounding_radii, pos1, rot1, v, lx, ly, lz, rx, ry, out)
+                lx, ly = lx + out * rx, ly + out * ry
+        corners[k, 0], corners[k, 1], corners[k, 2] = to_world(pos1, rot1, v, lx, ly, lz)
+        if _depth_elsewhere(kinds, radii, cuts, bounding_radii, pos1, rot1, v, corners[k, 0], corners[k, 1],
+                            corners[k, 2]) > pinch_depth:
+            return False  # no room for the cloth between this bone and another volume: contact wins
+    wnx, wny, wnz = rotate(rot1, v, ux, uy, 0.0)
+    for k in range(3):
+        i = triangles[t, k]
+        if corners[k, 0] == x[i, 0] and corners[k, 1] == x[i, 1] and corners[k, 2] == x[i, 2]:
+            continue
+        x[i, 0], x[i, 1], x[i, 2] = corners[k, 0], corners[k, 1], corners[k, 2]
+        lx, ly, lz = to_local(pos1, rot1, v, x[i, 0], x[i, 1], x[i, 2])
+        svx, svy, svz = surface_velocity(pos0, rot0, pos1, rot1, v, lx, ly, lz, h)
+        approach = (vel[i, 0] - svx) * wnx + (vel[i, 1] - svy) * wny + (vel[i, 2] - svz) * wnz
+        if approach < 0.0:  # physics: inelastic, as the point handling (memo Eq. 6-2), no friction
+            vel[i, 0] -= approach * wnx
+            vel[i, 1] -= approach * wny
+            vel[i, 2] -= approach * wnz
+    return True
+
+
+@kernel
+def handle_axes(kinds, radii, cuts, bounding_radii, bones, pos0, rot0, pos1, rot1, triangles, xs, x, vel, inv_mass, h, eps,
+                pinch_depth, passes, corners):
+    """Every volume axis (the bones; not spheres) against every triangle (T, 3) of ``x`` at the end poses;
+    a crossed triangle goes off the axis (``_push_off_axis``). Moving one can cross a neighbour, so up to
+    ``passes`` passes, until one moves nothing. ``corners`` (3, 3): scratch. Returns the number of triangles moved."""
+    n_moved = 0
+    for _ in range(passes):
+        moved = 0
+        for v in range(kinds.shape[0]):
+            z0, z1 = bones[v, 0], bones[v, 1]
+            if math.isnan(z0):
+                continue
+            px, py, pz = to_world(pos1, rot1, v, 0.0, 0.0, z0)
+            qx, qy, qz = to_world(pos1, rot1, v, 0.0, 0.0, z1)
+            dx, dy, dz = qx - px, qy - py, qz - pz
+            for t in range(triangles.shape[0]):
+                a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+                if segment_misses_triangle_box(x, a, b, c, px, py, pz, qx, qy, qz):
+                    continue
+                crosses, s, u, w = segment_crosses_triangle(px, py, pz, dx, dy, dz, x, a, b, c)
+                if crosses and _push_off_axis(kinds, radii, cuts, bounding_radii, bones, pos0, rot0, pos1, rot1, v, z0 + s * (z1 - z0),
+                                              triangles, t, u, w, xs, x, vel, inv_mass, h, eps, pinch_depth, corners):
+                    moved += 1
+        n_moved += moved
+        if moved == 0:
+            break
+    return n_moved
