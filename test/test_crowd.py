@@ -104,3 +104,12 @@ def test_crowd_command_reports_each_count_and_keeps_every_character_on_its_own_b
     assert summary["summary"] is True and summary["characters_at_60fps"] in (0, 1, 3)
     assert set(summary["tick_ms_by_characters"]) == {"1", "3"}
     assert isinstance(summary["characters_at_60fps_linear"], int) and summary["ms_per_character"] > 0
+
+
+def test_crowd_split_over_processes_counts_every_character_once(capsys):
+    assert main(["crowd", "--characters", "3", "--processes", "2", "--frames", "2", "--warmup", "0", "--json"]) == 0
+    row, summary = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert (row["processes"], row["characters_per_process"], row["threads"]) == (2, 2, 1)
+    assert row["mass_points"] > 0 and row["mass_points"] % 3 == 0 and row["garment_to_own_root_max_m"] < 0.3
+    assert row["garment_to_other_root_min_m"] > 1.0  # the process with two: each on its own walker
+    assert summary["processes"] == 2

@@ -6,7 +6,10 @@ place (``SPACING_M`` apart side by side), each run as the node runs one of its `
 (``ros.crowd.Member``: its /tf transforms into its own ``PoseBuffer`` in one batch per frame,
 ``CharacterLoop.frame``, its markers), with the node's default parameters. A tick is what the node
 does at 60 Hz: every character's input, frame and markers, then one MarkerArray of them all
-serialized (handing the bytes to DDS is ``garment-sim publish``'s figure). Body time advances
+serialized (handing the bytes to DDS is ``garment-sim publish``'s figure). ``step_ms`` is the
+characters' ``CharacterLoop.frame`` (pose sampling, root motion, the solver, the quality meters),
+``solver_ms`` the part in the solver's stages (integration, correction, collision: its own timers),
+``publish_ms`` the markers. Body time advances
 1/60 s per tick with no waiting, so ``tick_ms`` is the compute a 60 fps node needs.
 
 The characters' garments go through the solver one after another: the cloth kernels hold the GIL
@@ -45,6 +48,7 @@ RATE_HZ = 60.0
 PHASE_S = 0.37  # the walkers' phases apart, s (not a divisor of the gait's period: every one differs)
 SPACING_M = 1.5  # the walkers' places apart, side by side, m
 DRESS_TIMEOUT_S = 10.0  # body time within which every character must be dressed
+WORKER_TIMEOUT_S = 1800.0  # wall time a worker process gets for its row
 
 
 class Crowd:
@@ -90,10 +94,11 @@ class Crowd:
             self.feed(k, t)
         fed = time.perf_counter()
         shown: list[Member] = []
-        publish_s = 0.0
+        publish_s = solver_s = 0.0
         for member in self.members[:count]:
             result = member.loop.frame(t, t)
             if result is not None:
+                solver_s += sum(r.integration_s + r.correction_s + r.collision_s for r in result.reports)
                 before = time.perf_counter()
                 member.hold(result, character_namespace(self.values["marker_namespace"], member.prefix, True),
                             self.values)
@@ -103,8 +108,8 @@ class Crowd:
         stepped = time.perf_counter()
         serialize_marker_array(crowd_markers(shown, clear=False))
         end = time.perf_counter()
-        return {"input": fed - tic, "step": stepped - fed - publish_s, "publish": publish_s + end - stepped,
-                "tick": end - tic}
+        return {"input": fed - tic, "step": stepped - fed - publish_s, "solver": solver_s,
+                "publish": publish_s + end - stepped, "tick": end - tic}
 
     def dress_all(self) -> None:
         """Tick every character until all are running (``RuntimeError`` if one is not within ``DRESS_TIMEOUT_S``)."""
@@ -126,38 +131,51 @@ class Crowd:
         return own, others
 
 def time_group(count: int, garments: list[str], resolution: float, warmup: int, frames: int,
-               threads: int | None) -> dict:
-    """Dress ``count`` characters and time ``frames`` ticks after ``warmup`` (one process's share)."""
+               threads: int | None, start=None, results=None) -> dict:
+    """Dress ``count`` characters and time ``frames`` ticks after ``warmup`` (one process's share). In a
+    worker process: ``start``, a barrier, lines the timed ticks up with the other workers' (dressing
+    takes each a different while) and the row goes to the ``results`` queue."""
     threads = set_threads(threads)
     crowd = Crowd(count, garments, resolution)
     crowd.dress_all()
+    if start is not None:
+        start.wait()
     for _ in range(warmup):
         crowd.tick(count)
     samples = [crowd.tick(count) for _ in range(frames)]
     own, others = crowd.separation(count)
-    return {"series": {key: [sample[key] for sample in samples] for key in samples[0]}, "own": own, "others": others,
-            "mass_points": sum(m.loop.mass_points for m in crowd.members),
-            "max_penetration_m": max(m.loop.character.max_penetration() for m in crowd.members), "threads": threads}
+    row = {"series": {key: [sample[key] for sample in samples] for key in samples[0]}, "own": own, "others": others,
+           "mass_points": sum(m.loop.mass_points for m in crowd.members),
+           "max_penetration_m": max(m.loop.character.max_penetration() for m in crowd.members), "threads": threads}
+    if results is not None:
+        results.put(row)
+    return row
 
 
 def time_crowd(count: int, processes: int, garments: list[str], resolution: float, warmup: int, frames: int,
                threads: int | None) -> dict:
-    """``count`` characters split over ``processes`` processes running at once (``time_group`` each; one:
-    in this process): the row of the slowest."""
+    """``count`` characters split over ``processes`` processes timed at the same time (``time_group`` each;
+    one: in this process): the row of the slowest."""
     sizes = [len(group) for group in np.array_split(np.arange(count), processes) if len(group)]
-    jobs = [(size, garments, resolution, warmup, frames, threads) for size in sizes]
-    if len(jobs) == 1:
-        groups = [time_group(*jobs[0])]
+    job = (garments, resolution, warmup, frames, threads)
+    if len(sizes) == 1:
+        groups = [time_group(sizes[0], *job)]
     else:
-        with multiprocessing.get_context("spawn").Pool(len(jobs)) as pool:  # fork would copy numba's thread pool
-            groups = pool.starmap(time_group, jobs)
+        context = multiprocessing.get_context("spawn")  # fork would copy numba's thread pool
+        start, results = context.Barrier(len(sizes)), context.Queue()
+        workers = [context.Process(target=time_group, args=(size, *job, start, results)) for size in sizes]
+        for worker in workers:
+            worker.start()
+        groups = [results.get(timeout=WORKER_TIMEOUT_S) for _ in workers]  # a worker that died: queue.Empty
+        for worker in workers:
+            worker.join()
     slowest = max(groups, key=lambda g: np.median(g["series"]["tick"]))
     series = slowest["series"]
     tick_ms = _ms(series["tick"])
     others = min(g["others"] for g in groups)
     return {"characters": count, "processes": len(groups), "characters_per_process": max(sizes), "garments": garments,
             "mass_points": sum(g["mass_points"] for g in groups), "input_ms": _ms(series["input"]),
-            "step_ms": _ms(series["step"]), "publish_ms": _ms(series["publish"]), "tick_ms": tick_ms,
+            "step_ms": _ms(series["step"]), "solver_ms": _ms(series["solver"]), "publish_ms": _ms(series["publish"]), "tick_ms": tick_ms,
             "tick_p95_ms": _ms(series["tick"], 0.95), "per_character_ms": round(tick_ms / max(sizes), 3),
             "fps": round(1e3 / tick_ms, 1), "max_penetration_m": max(g["max_penetration_m"] for g in groups),
             "garment_to_own_root_max_m": round(max(g["own"] for g in groups), 4),
@@ -194,7 +212,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.json:
         print(f"{', '.join(garments)} per character, node defaults at {RATE_HZ:g} Hz; {args.processes} process(es), "
               f"{os.cpu_count()} cores, load {load_average()}")
-        print(f"{'chars':>5} {'points':>7} {'input':>7} {'step':>7} {'publish':>7} {'tick':>7} {'p95':>7} "
+        print(f"{'chars':>5} {'points':>7} {'input':>7} {'step':>7} {'solver':>7} {'publish':>7} {'tick':>7} {'p95':>7} "
               f"{'per ch.':>7} {'fps':>6} {'own m':>6} {'other m':>7}")
     rows = []
     for count in counts:
@@ -205,7 +223,7 @@ def run(args: argparse.Namespace) -> int:
             print(json.dumps(row), flush=True)
         else:
             others = row["garment_to_other_root_min_m"]
-            print(f"{count:>5} {row['mass_points']:>7} {row['input_ms']:>7.2f} {row['step_ms']:>7.2f} "
+            print(f"{count:>5} {row['mass_points']:>7} {row['input_ms']:>7.2f} {row['step_ms']:>7.2f} {row['solver_ms']:>7.2f} "
                   f"{row['publish_ms']:>7.2f} {row['tick_ms']:>7.2f} {row['tick_p95_ms']:>7.2f} "
                   f"{row['per_character_ms']:>7.2f} {row['fps']:>6.1f} {row['garment_to_own_root_max_m']:>6.3f} "
                   f"{'-' if others is None else f'{others:.2f}':>7}", flush=True)
