@@ -55,7 +55,7 @@ def character_namespace(marker_namespace: str, prefix: str, crowd: bool) -> str:
     return f"{marker_namespace}/{name}" if crowd and name else marker_namespace
 
 
-@dataclass
+@dataclass(eq=False)  # a character is itself: compared by identity
 class Member:
     """One character of a crowd and what the node keeps of it."""
 
@@ -111,12 +111,12 @@ def make_members(prefixes: Sequence[str], values: dict[str, Any], params: Solver
 
 
 def route_tf(decoder: TFDecoder, members: Sequence[Member], messages: Sequence[bytes],
-             now_s: float | None) -> tuple[list[str], list[str], float | None]:
+             now_s: float | None) -> tuple[list[str], list[str], list[float]]:
     """Every /tf message decoded once, each transform into its character's buffer (all of a frame's
     messages in one batch per character). Returns the decoding errors, the buffers' first refusals and
-    the newest message's lag behind ``now_s`` (receive time - stamp; None without a clock or stamps)."""
+    each stamped message's lag behind ``now_s`` (receive time - newest stamp; none without a clock)."""
     per_member: list[list[TransformBatch]] = [[] for _ in members]
-    errors, lag_s = [], None
+    errors, lags = [], []
     for data in messages:
         try:
             batches = decoder.decode_characters(data)
@@ -125,7 +125,7 @@ def route_tf(decoder: TFDecoder, members: Sequence[Member], messages: Sequence[b
             continue
         stamped = [b.stamps.max() for b in batches if len(b.stamps)]
         if stamped and now_s is not None:
-            lag_s = now_s - float(max(stamped))
+            lags.append(now_s - float(max(stamped)))
         if not stamped and not batches[0].other_character:
             members[0].input_counts["empty_messages"] += 1  # nothing to do; counted so a silent publisher shows
         for collected, batch in zip(per_member, batches):
@@ -136,7 +136,7 @@ def route_tf(decoder: TFDecoder, members: Sequence[Member], messages: Sequence[b
             refusal = member.count_input(ingest_batch(member.buffer, TransformBatch.concatenate(collected),
                                                       now_s=now_s), count_empty=False)
             refusals += [refusal] if refusal else []
-    return errors, refusals, lag_s
+    return errors, refusals, lags
 
 
 def crowd_markers(members: Sequence[Member], clear: bool) -> list[MarkerData]:

@@ -288,14 +288,15 @@ class GarmentSimNode(Node):
                 f"{self.stats.input_rate():.0f} messages/s. Poses stay the newest; see input_lag_* in diagnostics")
         now_ns = self.get_clock().now().nanoseconds  # 0: use_sim_time before the first /clock
         now_s = now_ns * 1e-9 if now_ns else None
-        errors, refusals, lag_s = route_tf(self._tf_decoder, self.members, messages, now_s)
+        errors, refusals, lags = route_tf(self._tf_decoder, self.members, messages, now_s)
         self.input_counts["undecodable"] += len(errors)
         if errors:
             self.log_throttled("warning", "tf_undecodable", f"a /tf message could not be decoded (counted): {errors[0]}")
-        if lag_s is not None:  # receive time - stamp of the newest message
+        for lag_s in lags:  # receive time - stamp, per message
             for member in self.members:
                 member.stats.record_input(lag_s)
-            self._frame_input["lag_ms"] = 1e3 * lag_s
+        if lags:
+            self._frame_input["lag_ms"] = 1e3 * lags[-1]
         self._log_refusals(refusals)
 
     def _on_tf_static(self, message: TFMessage) -> None:
@@ -310,21 +311,22 @@ class GarmentSimNode(Node):
     def _on_frame_timer(self) -> None:
         tic = time.perf_counter()
         dressed = fresh = False
+        members = self.members
         try:
             self._absorb_tf()  # the newest /tf first, however the executor scheduled the callbacks
             self._apply_pending()
             now_s = self.get_clock().now().nanoseconds * 1e-9
             self._frame_time = self._last_compute_s + now_s  # T_next = D_last + now
-        except Exception:
+        except Exception:  # a frame must never take the node down: report it and go on
             self._frame_failed()
-            return
-        for member in self.members:  # one after another: see ros.crowd
+            members = []
+        for member in members:  # one after another: see ros.crowd
             try:
                 result = member.loop.frame(self._frame_time, now_s)
                 if result is not None:
                     self._record_frame(member, result)
                     fresh, dressed = True, dressed or result.dressed
-            except Exception:  # a frame must never take the node down: report it and go on
+            except Exception:
                 self._frame_failed()
         try:
             self._publish_markers(fresh, clear=dressed)
