@@ -63,8 +63,8 @@ NODE_PARAMETERS: tuple[NodeParam, ...] = (
     NodeParam("frame_prefixes", [""], "", None, None,
               "several characters in one node (a crowd): one frame prefix each (e.g. [alice/, bob/]; none the "
               "start of another), each dressed on its own, its markers under <marker_namespace>/<prefix>, its own "
-              "/diagnostics status; root_frame does not apply, Rerun records the first; [''] (default): the "
-              "one character of frame_prefix", read_only=True),
+              "/diagnostics status; root_frame and frame_prefix do not apply, Rerun records the first; [''] "
+              "(default): the one character of frame_prefix", read_only=True),
     NodeParam("root_frame", "", "", None, None,
               "the skeleton's root frame (full name, with the prefix); empty: the child of fixed_frame "
               "within the prefix", read_only=True),
