@@ -4,14 +4,23 @@ character in one pass (``TFDecoder``), and ``garment-sim crowd``'s output and in
 from __future__ import annotations
 
 import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
 from node_harness import (CHARACTER, Probe, SkeletonPublisher, garment_node, graph,  # noqa: F401 (fixture)
                           ros_time, running, transform)
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.serialization import serialize_message
 from tf2_msgs.msg import TFMessage
-from visualization_msgs.msg import Marker
+from visualization_msgs.msg import Marker, MarkerArray
 
 from garment_sim_ros.cli import main
 from garment_sim_ros.params import ParameterError
@@ -113,3 +122,39 @@ def test_crowd_split_over_processes_counts_every_character_once(capsys):
     assert row["mass_points"] > 0 and row["mass_points"] % 3 == 0 and row["garment_to_own_root_max_m"] < 0.3
     assert row["garment_to_other_root_min_m"] > 1.0  # the process with two: each on its own walker
     assert summary["processes"] == 2
+
+
+def test_a_node_process_given_frame_prefixes_on_the_command_line_dresses_both_players(ros_context):
+    """The documented command line: ``-p "frame_prefixes:=[alice/, bob/]"`` (a YAML list, typed as the string
+    array declared) and two ``skeleton_player`` processes, each character under its own namespace."""
+    env, repo = os.environ.copy(), Path(__file__).parents[1]  # ros_context set the test's domain
+    command = [sys.executable, "-m", "garment_sim_ros.ros.node", "--ros-args", "-p", "frame_prefixes:=[alice/, bob/]",
+               "-p", "rate_hz:=20.0", "-p", "diagnostics_period:=0.5"]
+    processes = [subprocess.Popen(command, cwd=repo, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)]
+    for prefix in ("alice/", "bob/"):
+        processes.append(subprocess.Popen([sys.executable, "-m", "garment_sim_ros.ros.skeleton_player", "--ros-args",
+                                           "-p", f"frame_prefix:={prefix}", "-r", f"__node:={prefix[:-1]}_player"],
+                                          cwd=repo, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True))
+    listener = rclpy.create_node("listener", context=ros_context)
+    namespaces: set[str] = set()
+    statuses: dict[str, str] = {}
+    listener.create_subscription(MarkerArray, "/garment_sim_node/markers",
+                                 lambda m: namespaces.update(marker.ns for marker in m.markers), 10)
+    listener.create_subscription(DiagnosticArray, "/diagnostics",
+                                 lambda m: statuses.update((s.name, s.message) for s in m.status), 10)
+    executor = SingleThreadedExecutor(context=ros_context)
+    executor.add_node(listener)
+    expected = {"garment/alice/pants", "garment/bob/pants", "garment/alice/volumes", "garment/bob/volumes"}
+    try:
+        end = time.monotonic() + 60.0  # three processes import numba and ROS on a shared machine
+        while time.monotonic() < end and not (expected <= namespaces and len(statuses) >= 2):
+            executor.spin_once(timeout_sec=0.05)
+    finally:
+        executor.shutdown()
+        listener.destroy_node()
+        for process in processes:
+            process.send_signal(signal.SIGINT)
+        logs = [process.communicate(timeout=20) for process in processes]
+    assert expected <= namespaces, (namespaces, logs[0][1][-2000:])
+    assert {name.rsplit(": ", 1)[-1] for name in statuses} >= {"alice", "bob"}, statuses
+    assert all(process.returncode == 0 for process in processes), [log[1][-1000:] for log in logs]
