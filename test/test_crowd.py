@@ -89,12 +89,15 @@ def test_tf_decoder_routes_each_transform_to_its_character_in_one_pass():
         assert alone.children == bob.children and np.array_equal(alone.rotations, bob.rotations)
 
 
-def test_overlapping_prefixes_are_refused_and_the_default_is_frame_prefix():
+def test_overlapping_prefixes_are_refused_and_the_default_is_frame_prefix(graph):
     assert character_prefixes("alice/", [""]) == ["alice/"]
     assert character_prefixes("", ["a/", "b/"]) == ["a/", "b/"]
     for prefixes in (["a/", "a/b/"], ["", "b/"]):
         with pytest.raises(ParameterError, match="would be two characters'"):
             character_prefixes("", prefixes)
+    # the node says so and dresses the one character of frame_prefix
+    node = garment_node(graph, frame_prefix="carol/", frame_prefixes=["a/", "a/b/"])
+    assert [member.prefix for member in node.members] == ["carol/"]
 
 
 def test_crowd_command_reports_each_count_and_keeps_every_character_on_its_own_body(capsys):
