@@ -32,15 +32,20 @@ BOB_OFFSET = (0.0, 4.0, 0.0)
 
 
 def test_one_node_dresses_two_characters_each_in_its_own_namespace_on_its_own_pelvis(graph):
-    node = garment_node(graph, frame_prefixes=["alice/", "bob/"], garments=["pants"], rate_hz=30.0)
+    # a name of its own: no other test's node can publish on its topic or under its status names
+    node = garment_node(graph, "crowd_node", frame_prefixes=["alice/", "bob/"], garments=["pants"], rate_hz=30.0,
+                        diagnostics_period=0.25)
     graph.add(SkeletonPublisher(graph.context, "alice/", name="alice_player").node)
     graph.add(SkeletonPublisher(graph.context, "bob/", offset=BOB_OFFSET, name="bob_player").node)
-    probe = Probe(graph.context, "/garment_sim_node/markers")
+    probe = Probe(graph.context, "/crowd_node/markers")
     graph.add(probe.node)
     alice, bob = node.members
     dressed = lambda: all(m.loop.status == Status.RUNNING and m.stats.total_frames >= 5 for m in node.members)
     assert graph.spin_until(dressed, 30.0), [(m.prefix, m.loop.status, m.loop.detail) for m in node.members]
-    assert graph.spin_until(lambda: len(probe.markers) >= 3 and len(probe.diagnostics) >= 2, 5.0)
+    latest = lambda: {s.name: {kv.key: kv.value for kv in s.values} for s in probe.diagnostics}
+    names = [f"garment_sim: /crowd_node: {member.prefix.strip('/')}" for member in node.members]
+    reported = lambda: all(latest().get(name, {}).get("status") == Status.RUNNING for name in names)
+    assert graph.spin_until(lambda: len(probe.markers) >= 3 and reported(), 10.0), (len(probe.markers), latest())
 
     for member, prefix in ((alice, "alice/"), (bob, "bob/")):
         assert all(name.startswith(prefix) for name in member.loop.skeleton.names)
@@ -57,11 +62,9 @@ def test_one_node_dresses_two_characters_each_in_its_own_namespace_on_its_own_pe
         stamp = marker.header.stamp.sec + 1e-9 * marker.header.stamp.nanosec
         pelvis = CHARACTER.pose(stamp).frame("pelvis")[0] + offset
         assert np.linalg.norm(points.mean(axis=0)[:2] - pelvis[:2]) < 0.3, ns
-    # A /diagnostics status per character, each with its own figures.
-    names = {s.name: {kv.key: kv.value for kv in s.values} for s in probe.diagnostics}
-    for member in node.members:
-        values = names[f"garment_sim: /garment_sim_node: {member.prefix.strip('/')}"]
-        assert values["status"] == Status.RUNNING
+    # A /diagnostics status per character (running, above), each with its own figures.
+    for member, name in zip(node.members, names):
+        values = latest()[name]
         assert int(values["mass_points"]) == member.loop.mass_points > 0
         assert int(values["input_stored"]) > 0
 
