@@ -1,6 +1,7 @@
 # Two commands for a newcomer (see README):
 #   make demo   set up the venv (first time) and run the dressed, walking character
 #   make test   set up the venv (first time) and run the test suite
+#   make bench      every benchmark, the figures and their ratios (PEERS_VENV=... adds the peers)
 #   make evaluate   do the garments stay on real motion: every shared mocap clip (issue 11's table)
 PYTHON ?= python3.11
 VENV   ?= .venv
@@ -11,6 +12,9 @@ BVH ?=
 GARMENTS ?=
 MOCAP ?= ../shared/mocap
 JOBS ?= 2
+PEERS ?= ../shared/peers
+PEERS_VENV ?= /tmp/peers-venv
+BENCHES ?=
 
 .PHONY: venv demo test bench evaluate clean
 
@@ -34,8 +38,10 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(PY) -m pytest -q test
 
+# Every benchmark, then the issue-15 figures against their targets with ratios to the roofline and, when
+# PEERS_VENV exists, the peers measured in the same run (JSON lines in out/bench.jsonl, and a table).
 bench: $(STAMP)
-	for b in table1 scale publish drape tf_throughput rerun_rate; do $(PY) bench/$$b.py || exit 1; done
+	PEERS=$(PEERS) PEERS_VENV=$(PEERS_VENV) $(PY) bench/run.py $(if $(BENCHES),--only $(BENCHES),)
 
 # Every clip x garment x 1, 2, 3x playback x 60, 30 fps; fails (exit 1) while a run misses a target.
 evaluate: $(STAMP)

@@ -25,6 +25,7 @@ COMMANDS = {
     "scale": "garment_sim_ros.commands.scale",
     "publish": "garment_sim_ros.commands.publish",
     "drape": "garment_sim_ros.commands.drape",
+    "crowd": "garment_sim_ros.commands.crowd",
 }
 
 # One-line help without importing the modules (some import rclpy or rerun).
@@ -42,6 +43,7 @@ SUMMARIES = {
     "scale": "cost per frame against resolution (500 to 50 000 mass points)",
     "publish": "MarkerArray publishing cost: numpy CDR path against rclpy Point objects",
     "drape": "the classic drape scene: square cloth over a moving sphere",
+    "crowd": "how many characters one process dresses at 60 fps, cost against their number",
 }
 
 

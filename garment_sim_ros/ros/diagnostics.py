@@ -8,11 +8,12 @@ mapped or a frame that failed since the last status.
 from __future__ import annotations
 
 from collections import Counter
-from typing import Mapping
+from typing import Any, Mapping, Sequence
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 
 from .character_loop import CharacterLoop, Status
+from .crowd import Member
 
 LAG_WARNING_FRACTION = 0.1  # WARN when the garments fall behind by this share of the body's time...
 LAG_WARNING_MIN_S = 0.001  # ...and by at least this much, s (a window right after a resume holds little time)
@@ -55,3 +56,20 @@ def diagnostic_status(name: str, hardware_id: str, level: bytes, message: str,
                       values: Mapping[str, str]) -> DiagnosticStatus:
     return DiagnosticStatus(level=level, name=name, message=message, hardware_id=hardware_id,
                             values=[KeyValue(key=k, value=v) for k, v in values.items()])
+
+
+def crowd_statuses(node_name: str, members: Sequence[Member], values: Mapping[str, Any], now_s: float,
+                   totals: Mapping[str, int], frame_failed: bool) -> list[DiagnosticStatus]:
+    """One status per character: ``garment_sim: <node>`` for one, ``garment_sim: <node>: <prefix>`` in a crowd
+    (hardware id: the prefix, or the fixed frame without one); ``totals`` are the node's."""
+    statuses = []
+    for member in members:
+        figures = member.stats.window()
+        level, message = level_and_message(member.loop, figures, frame_failed)
+        counters = {"input": member.input_counts, "rejected": member.buffer.rejected,
+                    "adjusted": member.buffer.adjusted, "loop": member.loop.counts, "solver": member.stats.recoveries}
+        figures_text = status_values(member.loop, figures, now_s, {"total_frames": member.stats.total_frames, **totals},
+                                     counters)
+        name = f"garment_sim: {node_name}" + (f": {member.prefix.strip('/')}" if len(members) > 1 else "")
+        statuses.append(diagnostic_status(name, member.prefix or values["fixed_frame"], level, message, figures_text))
+    return statuses

@@ -3,7 +3,10 @@
 Wires topics, parameters and timers to the ROS-free modules:
 
 - ``/tf`` and ``/tf_static`` (``tf2_msgs/TFMessage``; static: transient local) into a ``PoseBuffer``;
-  only frames starting with ``frame_prefix`` are this character's. /tf is taken raw and drained at
+  only frames starting with ``frame_prefix`` are this character's. With ``frame_prefixes`` one node
+  dresses several characters, each its own buffer and loop (``ros.crowd``): each transform goes to
+  its character in one pass, one MarkerArray per frame holds them all, each character in its own
+  namespace, and /diagnostics has a status per character. /tf is taken raw and drained at
   the start of every frame, decoded by ``tf_input.TFDecoder`` (numpy), so 100+ joints at 120 Hz and
   more cost a small share of a core and the frame always samples the newest data (issue 17).
 - a timer at ``rate_hz``: ``T_next = D_last + now`` (the node's clock, so ``use_sim_time`` works;
@@ -31,7 +34,6 @@ from __future__ import annotations
 import sys
 import time
 import traceback
-from collections import Counter
 from typing import Any, Sequence
 
 import rclpy
@@ -48,20 +50,18 @@ from std_msgs.msg import Header
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import MarkerArray
 
-from ..body.pose_buffer import PoseBuffer
-from ..markers import frame_markers
 from ..params import ParameterError, SolverParams
-from ..rerun_log import RerunLogger, frame_payload
-from .character_loop import CharacterLoop, FrameResult, Throttle
-from .diagnostics import diagnostic_status, level_and_message, status_values
-from .frame_stats import FrameStats
+from ..rerun_log import RerunLogger
+from .character_loop import FrameResult, Throttle
+from .crowd import Member, character_namespace, character_prefixes, crowd_markers, make_members, route_tf
+from .diagnostics import crowd_statuses
 from .marker_cdr import serialize_marker_array
 from .params_watch import ParamsFileWatch
 from .ros_parameters import descriptor, parameter_type, params_file_from_args, plain, ros_value
 from .settings import (ALL_PARAMETERS, PARAMETER_ROWS, SOLVER_PARAMETER_NAMES, check_garments, garment_folders,
                        is_read_only)
 from .spinning import spin_until_shutdown
-from .tf_input import IngestResult, TFDecoder, TransformBatch, ingest, ingest_batch, seconds_to_stamp
+from .tf_input import TFDecoder, ingest
 
 NODE_NAME = "garment_sim_node"
 # /tf: reliable and volatile as tf2's listeners, so every publisher that works with tf2 matches. Keep
@@ -86,7 +86,7 @@ class UndeclaredParameters(ParameterNotDeclaredException):
 
 
 class GarmentSimNode(Node):
-    """Dresses the character of ``frame_prefix`` on /tf; see the module docstring."""
+    """Dresses the character of ``frame_prefix`` (or those of ``frame_prefixes``) on /tf; see the module docstring."""
 
     def __init__(self, node_name: str = NODE_NAME, *, params_file_hint: str = "", **kwargs):
         super().__init__(node_name, **kwargs)
@@ -95,27 +95,25 @@ class GarmentSimNode(Node):
         self.values: dict[str, Any] = self._declare_parameters(kwargs.get("parameter_overrides") or ())
         self.solver_params = SolverParams(**{name: self.values[name] for name in SOLVER_PARAMETER_NAMES})
         v = self.values
-        self.buffer = PoseBuffer(v["fixed_frame"], max_age_s=v["max_skeleton_age"],
-                                 max_extrapolation_s=v["max_extrapolation"])
-        self.loop = CharacterLoop(self.buffer, self.solver_params, v["garments"], v["resolution"],
-                                  frame_prefix=v["frame_prefix"], root_frame=v["root_frame"],
-                                  joint_map_file=v["joint_map_file"], body_file=v["body_file"],
-                                  logger=self.get_logger(), on_event=self._on_loop_event,
-                                  garment_path=garment_folders(v["garment_path"]))
-        self.stats = FrameStats()
-        self.input_counts: Counter[str] = Counter()  # transforms stored / of other characters / refused
+        try:
+            prefixes = character_prefixes(v["frame_prefix"], v["frame_prefixes"])
+        except ParameterError as err:
+            self.get_logger().error(f"{err}; dressing one character of frame_prefix {v['frame_prefix']!r}")
+            prefixes = [v["frame_prefix"]]
+        self.members: list[Member] = make_members(prefixes, v, self.solver_params, self.get_logger(),
+                                                  self._on_loop_event)
         self.frame_errors = 0
         self._frame_errors_reported = 0
-        self.last_diagnostics: dict[str, str] = {}
+        self.last_diagnostics: dict[str, str] = {}  # the first character's last status values
         self._pending: dict[str, Any] = {}
         self._clear_markers = False
         self._last_compute_s = 0.0
         self._frame_time = 0.0  # the frame being computed (T_next), s: the time of the loop's events
-        self._held: tuple[dict, tuple[int, int]] | None = None  # the last frame's payload and stamp
+        self._shown: list[Member] = []  # the characters in the last MarkerArray...
         self._held_message = b""  # ...serialized, published again while nothing new is simulated
 
         # raw: the bytes are decoded by ``TFDecoder`` (numpy), never into Python message objects
-        self._tf_decoder = TFDecoder(v["frame_prefix"])
+        self._tf_decoder = TFDecoder(prefixes)
         self._tf_pending: list[bytes] = []
         # the /tf input at the newest frame, for the Rerun recording: messages absorbed, newest lag (ms)
         self._frame_input: dict[str, float] = {"backlog": 0.0}
@@ -131,6 +129,12 @@ class GarmentSimNode(Node):
         self.params_watch = ParamsFileWatch(self, params_file_hint)
         self.watch_timer = self.create_timer(v["watch_period"], self.params_watch.poll, clock=steady)
         self.rerun = self._create_rerun_logger()
+
+    # the first (with frame_prefix alone, the only) character's
+    loop = property(lambda self: self.members[0].loop)
+    buffer = property(lambda self: self.members[0].buffer)
+    stats = property(lambda self: self.members[0].stats)
+    input_counts = property(lambda self: self.members[0].input_counts)
 
     # ------------------------------------------------------------------------------ parameters
     # rclpy's public callbacks: ``_prepare`` (pre-set, runtime sets only) checks against the tables and
@@ -235,18 +239,24 @@ class GarmentSimNode(Node):
             return
         if SOLVER_PARAMETER_NAMES & changes.keys():
             self.solver_params = SolverParams(**{name: self.values[name] for name in SOLVER_PARAMETER_NAMES})
-            self.loop.set_params(self.solver_params)
-        if any(key in changes for key in _REDRESS_KEYS):
-            self.loop.set_garments(self.values["garments"], self.values["resolution"],
-                                   garment_folders(self.values["garment_path"]))
-        if any(key in changes for key in _CLEAR_KEYS):
-            self._clear_markers = True
+        for member in self.members:
+            if SOLVER_PARAMETER_NAMES & changes.keys():
+                member.loop.set_params(self.solver_params)
+            if any(key in changes for key in _REDRESS_KEYS):
+                member.loop.set_garments(self.values["garments"], self.values["resolution"],
+                                         garment_folders(self.values["garment_path"]))
+            if any(key in changes for key in _CLEAR_KEYS):
+                self._clear_markers = True
+                member.restyle(self._namespace(member), self.values)
+            member.buffer.max_age_s = self.values["max_skeleton_age"]
+            member.buffer.max_extrapolation_s = self.values["max_extrapolation"]
         if self.rerun is not None:
             self.rerun.every_n = self.values["rerun_every_n"]
             self.rerun.log_event(self._frame_time, "info", "parameters",
                                  ", ".join(f"{name}={plain(value)!r}" for name, value in sorted(changes.items())))
-        self.buffer.max_age_s = self.values["max_skeleton_age"]
-        self.buffer.max_extrapolation_s = self.values["max_extrapolation"]
+
+    def _namespace(self, member: Member) -> str:
+        return character_namespace(self.values["marker_namespace"], member.prefix, len(self.members) > 1)
 
     # ------------------------------------------------------------------------------ input
     def _on_tf(self, message: bytes | TFMessage) -> None:
@@ -276,7 +286,8 @@ class GarmentSimNode(Node):
                 messages.append(taken[0])
         if not messages:
             return
-        self.stats.record_drain(len(messages))
+        for member in self.members:
+            member.stats.record_drain(len(messages))
         self._frame_input["backlog"] = float(len(messages))
         if len(messages) - kept >= _TF_QOS.depth and not self._warned_tf_full:
             self._warned_tf_full = True  # once: the diagnostics go on counting (input_backlog, input_hz)
@@ -286,105 +297,94 @@ class GarmentSimNode(Node):
                 f"{self.stats.input_rate():.0f} messages/s. Poses stay the newest; see input_lag_* in diagnostics")
         now_ns = self.get_clock().now().nanoseconds  # 0: use_sim_time before the first /clock
         now_s = now_ns * 1e-9 if now_ns else None
-        batches = []
-        for data in messages:
-            try:
-                batch = self._tf_decoder.decode(data)
-            except ValueError as err:
-                self.input_counts["undecodable"] += 1
-                self.log_throttled("warning", "tf_undecodable", f"a /tf message could not be decoded (counted): {err}")
-                continue
-            if len(batch.stamps) and now_s is not None:
-                lag_s = now_s - float(batch.stamps.max())  # receive time - stamp
-                self.stats.record_input(lag_s)
-                self._frame_input["lag_ms"] = 1e3 * lag_s
-            if not (len(batch.stamps) or batch.other_character):
-                self.input_counts["empty_messages"] += 1  # nothing to do; counted so a silent publisher shows
-            batches.append(batch)
-        if batches:
-            self._count_input(ingest_batch(self.buffer, TransformBatch.concatenate(batches), now_s=now_s),
-                              count_empty=False)
+        errors, refusals, lags = route_tf(self._tf_decoder, self.members, messages, now_s)
+        self.input_counts["undecodable"] += len(errors)
+        if errors:
+            self.log_throttled("warning", "tf_undecodable", f"a /tf message could not be decoded (counted): {errors[0]}")
+        for lag_s in lags:  # receive time - stamp, per message
+            for member in self.members:
+                member.stats.record_input(lag_s)
+        if lags:
+            self._frame_input["lag_ms"] = 1e3 * lags[-1]
+        self._log_refusals(refusals)
 
     def _on_tf_static(self, message: TFMessage) -> None:
-        self._count_input(ingest(self.buffer, message, self.values["frame_prefix"], static=True))
+        self._log_refusals([refusal for member in self.members
+                            if (refusal := member.count_input(ingest(member.buffer, message, member.prefix, static=True)))])
 
-    def _count_input(self, result: IngestResult, count_empty: bool = True) -> None:
-        self.input_counts["stored"] += result.stored
-        self.input_counts["other_character"] += result.other_character
-        self.input_counts["refused"] += result.refused
-        if count_empty and not (result.stored or result.other_character or result.refused):
-            self.input_counts["empty_messages"] += 1  # nothing to do; counted so a silent publisher shows
-        if result.refused:
-            self.log_throttled("warning", "tf_refused",
-                      f"refused /tf input (counted in diagnostics), e.g. {result.first_refusal}")
+    def _log_refusals(self, refusals: list[str]) -> None:
+        if refusals:
+            self.log_throttled("warning", "tf_refused", f"refused /tf input (counted in diagnostics), e.g. {refusals[0]}")
 
     # ------------------------------------------------------------------------------ the frame
     def _on_frame_timer(self) -> None:
         tic = time.perf_counter()
-        dressed = False
+        dressed = fresh = False
+        members = self.members
         try:
             self._absorb_tf()  # the newest /tf first, however the executor scheduled the callbacks
             self._apply_pending()
             now_s = self.get_clock().now().nanoseconds * 1e-9
             self._frame_time = self._last_compute_s + now_s  # T_next = D_last + now
-            result = self.loop.frame(self._frame_time, now_s)
-            if result is not None:
-                self._publish_frame(result)
-                dressed = result.dressed
-            else:
-                self._publish_held()
         except Exception:  # a frame must never take the node down: report it and go on
-            if not self.context.ok():
-                return  # shut down (a signal) mid-frame: the publish failed, nothing to report
-            self.frame_errors += 1
-            self.log_throttled("error", "frame_error",
-                               f"frame failed (counted in diagnostics):\n{traceback.format_exc()}")
+            self._frame_failed()
+            members = []
+        for member in members:  # one after another: see ros.crowd
+            try:
+                result = member.loop.frame(self._frame_time, now_s)
+                if result is not None:
+                    self._record_frame(member, result)
+                    fresh, dressed = True, dressed or result.dressed
+            except Exception:
+                self._frame_failed()
+        try:
+            self._publish_markers(fresh, clear=dressed)
+        except Exception:
+            self._frame_failed()
         compute_s = time.perf_counter() - tic
-        self.stats.record_tick(compute_s)
+        for member in self.members:
+            member.stats.record_tick(compute_s)
         # D_last: dressing is no frame's compute time, T_next of the next frame must not jump by it
         self._last_compute_s = 0.0 if dressed else compute_s
 
-    def _publish_frame(self, result: FrameResult) -> None:
+    def _frame_failed(self) -> None:
+        if not self.context.ok():
+            return  # shut down (a signal) mid-frame: the publish failed, nothing to report
+        self.frame_errors += 1
+        self.log_throttled("error", "frame_error", f"frame failed (counted in diagnostics):\n{traceback.format_exc()}")
+
+    def _record_frame(self, member: Member, result: FrameResult) -> None:
         tic = time.perf_counter()
-        payload = frame_payload(self.loop.character, result.pose)
-        self._held = (payload, seconds_to_stamp(result.time_s))  # the time of the pose simulated on
-        self._publish_markers(clear=result.dressed)
+        member.hold(result, self._namespace(member), self.values)  # stamped with the pose's time
         publish_s = time.perf_counter() - tic
-        self.stats.record_frame(result.reports, result.frame_s, result.penetration_m)
+        member.stats.record_frame(result.reports, result.frame_s, result.penetration_m)
         recovered = [(solver.model.name, report.recovery)
-                     for solver, report in zip(self.loop.character.solvers, result.reports) if report.recovery]
+                     for solver, report in zip(member.loop.character.solvers, result.reports) if report.recovery]
         if recovered:
             self.log_throttled("warning", "solver_recovery",
                                "a garment step went bad (counted in diagnostics as solver_*): "
-                               + ", ".join(f"{name} {what}" for name, what in recovered))
-        self.stats.record_publish(publish_s)
-        if self.rerun is not None:
-            self._log_rerun(result, payload, publish_s)
+                               + ", ".join(f"{member.prefix}{name} {what}" for name, what in recovered))
+        member.stats.record_publish(publish_s)
+        if self.rerun is not None and member is self.members[0]:  # Rerun records the first character
+            self._log_rerun(result, member.held[0], publish_s)
 
-    def _publish_markers(self, clear: bool = False) -> None:
-        """The held frame's markers; after a change of garments or namespaces (or volumes switched off), a
-        DELETEALL first that drops the old ones (published once, the held message is without it)."""
-        payload, stamp = self._held
-        v = self.values
-        markers = frame_markers(payload, v["marker_namespace"], v["fixed_frame"], stamp, v["publish_volumes"])
-        self._held_message = serialize_marker_array(markers)
-        if clear or self._clear_markers:
-            self._clear_markers = False
-            self.marker_publisher.publish(serialize_marker_array(
-                frame_markers(payload, v["marker_namespace"], v["fixed_frame"], stamp, v["publish_volumes"],
-                              clear=True)))
-        else:
-            self.marker_publisher.publish(self._held_message)
-
-    def _publish_held(self) -> None:
-        """Nothing new simulated (holding, folded, no newer pose): the last garment again, at rate_hz, so
-        a late subscriber sees it; not while (re-)dressing, whose first frame replaces it."""
-        if self._held is None or self.loop.character is None:
+    def _publish_markers(self, fresh: bool, clear: bool = False) -> None:
+        """Every character's held frame in one MarkerArray (none while (re-)dressing: its first frame
+        replaces it). Nothing new simulated (holding, folded, no newer pose): the last message again, at
+        rate_hz, so a late subscriber sees the garments. After a change of garments or namespaces (or
+        volumes switched off), or a re-dress, a DELETEALL first that drops the old ones (published once,
+        the held message is without it)."""
+        shown = [m for m in self.members if m.held is not None and m.loop.character is not None]
+        if not shown:
             return
-        if self._clear_markers:
-            self._publish_markers()
-        else:
-            self.marker_publisher.publish(self._held_message)
+        clear = clear or self._clear_markers
+        if fresh or clear or shown != self._shown:
+            self._shown, self._clear_markers = shown, False
+            self._held_message = serialize_marker_array(crowd_markers(shown, clear=False))
+            if clear:
+                self.marker_publisher.publish(serialize_marker_array(crowd_markers(shown, clear=True)))
+                return
+        self.marker_publisher.publish(self._held_message)
 
     def _log_rerun(self, result: FrameResult, payload: dict, publish_s: float) -> None:
         try:
@@ -411,22 +411,17 @@ class GarmentSimNode(Node):
 
     # ------------------------------------------------------------------------------ diagnostics
     def publish_diagnostics(self) -> None:
-        figures = self.stats.window()
         now = self.get_clock().now()
         if now.nanoseconds == 0 and self.get_clock().ros_time_is_active:
-            self.loop.clock_not_started()  # use_sim_time and no /clock yet: the frame timer does not fire
+            for member in self.members:  # use_sim_time and no /clock yet: the frame timer does not fire
+                member.loop.clock_not_started()
         failed = self.frame_errors > self._frame_errors_reported  # a frame failed since the last status
         self._frame_errors_reported = self.frame_errors
-        level, message = level_and_message(self.loop, figures, failed)
-        totals = {"total_frames": self.stats.total_frames, "frame_errors": self.frame_errors,
-                  "params_file_errors": self.params_watch.errors}
-        counters = {"input": self.input_counts, "rejected": self.buffer.rejected, "adjusted": self.buffer.adjusted,
-                    "loop": self.loop.counts, "solver": self.stats.recoveries}
-        self.last_diagnostics = status_values(self.loop, figures, now.nanoseconds * 1e-9, totals, counters)
-        status = diagnostic_status(f"garment_sim: {self.get_fully_qualified_name()}",
-                                   self.values["frame_prefix"] or self.values["fixed_frame"], level, message,
-                                   self.last_diagnostics)
-        self.diagnostics_publisher.publish(DiagnosticArray(header=Header(stamp=now.to_msg()), status=[status]))
+        totals = {"frame_errors": self.frame_errors, "params_file_errors": self.params_watch.errors}
+        statuses = crowd_statuses(self.get_fully_qualified_name(), self.members, self.values, now.nanoseconds * 1e-9,
+                                  totals, failed)
+        self.last_diagnostics = {kv.key: kv.value for kv in statuses[0].values}  # the first character's
+        self.diagnostics_publisher.publish(DiagnosticArray(header=Header(stamp=now.to_msg()), status=statuses))
 
     def log_throttled(self, level: str, key: str, message: str) -> None:
         if not self._throttle.ready(key):

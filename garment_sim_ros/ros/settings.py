@@ -50,8 +50,7 @@ class NodeParam(Param):
         if isinstance(self.default, list):
             if (not isinstance(value, (list, tuple)) or not value or not all(isinstance(v, str) for v in value)
                     or (self.choices and not set(value) <= set(self.choices)) or len(set(value)) != len(value)):
-                raise ParameterError(f"{self.name}: got {value!r}; allowed: a non-empty list of distinct names, "
-                                     f"each one of {', '.join(self.choices)}")
+                raise ParameterError(f"{self.name}: got {value!r}; allowed: {self.allowed()}")
             return list(value)
         if isinstance(self.default, str) and not self.choices:
             if not isinstance(value, str):
@@ -63,7 +62,8 @@ class NodeParam(Param):
         if isinstance(self.default, bool):
             return "true or false"
         if isinstance(self.default, list):
-            return "a non-empty list of " + (", ".join(self.choices) if self.choices else "names")
+            return ("a non-empty list of distinct names, each one of " + ", ".join(self.choices) if self.choices
+                    else "a non-empty list of distinct names")
         if isinstance(self.default, str) and not self.choices:
             return "a string"
         return super().allowed()
@@ -76,6 +76,11 @@ NODE_PARAMETERS: tuple[NodeParam, ...] = (
     NodeParam("frame_prefix", "", "", None, None,
               "only /tf frames whose name starts with this belong to this character (e.g. alice/); "
               "empty: every frame", read_only=True),
+    NodeParam("frame_prefixes", [""], "", None, None,
+              "several characters in one node (a crowd): one frame prefix each (e.g. [alice/, bob/]; none the "
+              "start of another), each dressed on its own, its markers under <marker_namespace>/<prefix>, its own "
+              "/diagnostics status; root_frame and frame_prefix do not apply, Rerun records the first; [''] "
+              "(default): the one character of frame_prefix", read_only=True),
     NodeParam("root_frame", "", "", None, None,
               "the skeleton's root frame (full name, with the prefix); empty: the child of fixed_frame "
               "within the prefix", read_only=True),

@@ -3,7 +3,8 @@ CDR bytes with ``TFDecoder``; the node takes /tf as bytes, ``ingest`` serves /tf
 
 One character per frame prefix: a transform belongs to the character when its child frame starts
 with the prefix (every transform when the prefix is empty); others are another character's and
-are skipped without complaint. Frame names lose a leading '/' (tf2 does the same). What the
+are skipped without complaint. ``TFDecoder`` routes every transform of a message to its character
+among several prefixes in one pass (a crowd in one node: ``ros.crowd``). Frame names lose a leading '/' (tf2 does the same). What the
 buffer refuses (NaN, zero quaternions, cycles, far too old or future stamps...) is counted there
 (``PoseBuffer.rejected``) and the first reason is kept for a throttled log line.
 """
@@ -12,6 +13,7 @@ from __future__ import annotations
 
 import struct
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 
@@ -97,7 +99,8 @@ class TransformBatch:
 
 @dataclass
 class _Layout:
-    """Where the fields of a TFMessage with given frame names lie, and which rows are the character's."""
+    """Where the fields of a TFMessage with given frame names lie, and which rows are whose: the kept
+    rows (M) are grouped by character, character k's are rows ``bounds[k]:bounds[k + 1]``."""
 
     size: int
     name_index: np.ndarray  # byte positions of every count, string length and string byte
@@ -106,24 +109,32 @@ class _Layout:
     pose_doubles: np.ndarray  # (M,) float64 index of each kept row's translation.x (7 doubles)
     parents: list[str]
     children: list[str]
-    other_character: int
+    bounds: list[int]  # (K + 1,) where each character's rows start, then M
+    transforms: int  # every transform of the message, kept or not
 
 
 class TFDecoder:
-    """Decodes serialized ``tf2_msgs/TFMessage`` bytes into ``TransformBatch``es of the transforms
-    whose child frame starts with ``prefix`` (another character's are counted, never built).
+    """Decodes serialized ``tf2_msgs/TFMessage`` bytes into ``TransformBatch``es: one per prefix in
+    ``prefixes`` (a string: one character), of the transforms whose child frame starts with it
+    (another character's, or no one's, are counted, never built). A child is routed to the first
+    prefix it starts with; ``ros.crowd.check_prefixes`` keeps a node's prefixes from overlapping.
 
     Layouts are cached (at most ``max_layouts``; a publisher whose frame names change every
     message costs a parse each time, still without Python message objects)."""
 
-    def __init__(self, prefix: str = "", max_layouts: int = 64):
-        self.prefix = prefix
+    def __init__(self, prefixes: str | Sequence[str] = "", max_layouts: int = 64):
+        self.prefixes = [prefixes] if isinstance(prefixes, str) else list(prefixes)
         self.max_layouts = max_layouts
         self._layouts: dict[int, list[_Layout]] = {}
         self._count = 0
 
     def decode(self, data: bytes) -> TransformBatch:
-        """``ValueError`` for bytes that are no little-endian CDR TFMessage."""
+        """The first (or only) character's transforms of ``decode_characters``."""
+        return self.decode_characters(data)[0]
+
+    def decode_characters(self, data: bytes) -> list[TransformBatch]:
+        """One batch per prefix, in one gather over the message (each batch a slice of it); ``ValueError``
+        for bytes that are no little-endian CDR TFMessage."""
         buf = np.frombuffer(data, dtype=np.uint8)
         layout = self._find(buf)
         if layout is None:
@@ -139,8 +150,10 @@ class TFDecoder:
         sec = words[layout.stamp_words].view(np.int32).astype(np.float64)
         nanosec = words[layout.stamp_words + 1].astype(np.float64)
         poses = doubles[layout.pose_doubles[:, None] + np.arange(7)]
-        return TransformBatch(sec + 1e-9 * nanosec, layout.parents, layout.children, poses[:, :3], poses[:, 3:],
-                              layout.other_character)
+        stamps, bounds = sec + 1e-9 * nanosec, layout.bounds
+        return [TransformBatch(stamps[a:b], layout.parents[a:b], layout.children[a:b], poses[a:b, :3],
+                               poses[a:b, 3:], layout.transforms - (b - a))
+                for a, b in zip(bounds[:-1], bounds[1:])]
 
     def _find(self, buf: np.ndarray) -> _Layout | None:
         for layout in self._layouts.get(len(buf), ()):
@@ -179,8 +192,7 @@ class TFDecoder:
             return data[start:start + length - 1].decode("utf-8", errors="replace")
 
         count = uint32()
-        stamp_words, pose_doubles, parents, children = [], [], [], []
-        other = 0
+        rows: list[tuple[int, int, int, str, str]] = []  # character, stamp word, pose double, parent, child
         for _ in range(count):
             align(4)
             stamp_at = offset
@@ -192,17 +204,17 @@ class TFDecoder:
             offset += 56  # geometry_msgs/Transform: Vector3, Quaternion
             if _PAYLOAD + offset > len(data):
                 raise ValueError(f"TFMessage truncated: {count} transforms need more than {len(data)} bytes")
-            if not child.startswith(self.prefix):
-                other += 1
-                continue
-            stamp_words.append((_PAYLOAD + stamp_at) // 4)
-            pose_doubles.append(pose_at // 8)
-            parents.append(parent)
-            children.append(child)
+            character = next((k for k, prefix in enumerate(self.prefixes) if child.startswith(prefix)), None)
+            if character is not None:
+                rows.append((character, (_PAYLOAD + stamp_at) // 4, pose_at // 8, parent, child))
+        rows.sort(key=lambda row: row[0])  # stable: each character's rows in the message's order
+        owners = np.array([row[0] for row in rows], dtype=np.int64)
+        bounds = np.searchsorted(owners, np.arange(len(self.prefixes) + 1)).tolist()
         index = np.array(names, dtype=np.int64)
         buf = np.frombuffer(data, dtype=np.uint8)
-        return _Layout(len(data), index, buf[index].copy(), np.array(stamp_words, dtype=np.int64),
-                       np.array(pose_doubles, dtype=np.int64), parents, children, other)
+        return _Layout(len(data), index, buf[index].copy(), np.array([row[1] for row in rows], dtype=np.int64),
+                       np.array([row[2] for row in rows], dtype=np.int64), [row[3] for row in rows],
+                       [row[4] for row in rows], bounds, count)
 
 
 def ingest_batch(buffer, batch: TransformBatch, now_s: float | None = None) -> IngestResult:
