@@ -30,9 +30,9 @@ from visualization_msgs.msg import Marker
 from garment_sim_ros.body.pose_buffer import PoseBuffer, SampleStatus
 from garment_sim_ros.cloth.solver import GarmentSolver
 from garment_sim_ros.params import DEFAULT_PARAMS
-from garment_sim_ros.ros.character_loop import BONE_CHECK_S, CLOCK_JUMP_BACK_S, CharacterLoop, Status
+from garment_sim_ros.runtime.character_loop import BONE_CHECK_S, CLOCK_JUMP_BACK_S, CharacterLoop, Status
 from garment_sim_ros.ros.diagnostics import level_and_message
-from garment_sim_ros.ros.tf_input import seconds_to_stamp
+from garment_sim_ros.runtime.tf_input import seconds_to_stamp
 
 FRAME = 1.0 / 60.0
 NAMES = CHARACTER.skeleton.names

@@ -38,7 +38,7 @@ def _progress(message: str) -> None:
 
 def run(args) -> int:
     from ..commands.simulate import parse_garments
-    from ..ros.settings import check_value
+    from ..runtime.settings import check_value
 
     garments = parse_garments(args.garments)
     if not args.duration > 0:
@@ -54,7 +54,7 @@ def run(args) -> int:
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
 
-    from ..ros.character_loop import Status
+    from ..runtime.character_loop import Status
     from ..ros.node import GarmentSimNode
     from ..ros.skeleton_player import SkeletonPlayer
 

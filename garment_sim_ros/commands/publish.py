@@ -52,7 +52,7 @@ def _median_ms(samples: list[float]) -> float:
 
 
 def _measure(publisher, n_vertices: int, repeats: int) -> dict:
-    from garment_sim_ros.ros.marker_cdr import TRIANGLE_LIST, MarkerData, serialize_marker_array
+    from garment_sim_ros.runtime.marker_cdr import TRIANGLE_LIST, MarkerData, serialize_marker_array
     from garment_sim_ros.ros.marker_objects import marker_array_message
 
     rng = np.random.default_rng(n_vertices)

@@ -12,7 +12,7 @@ from typing import Mapping
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 
-from .character_loop import CharacterLoop, Status
+from ..runtime.character_loop import CharacterLoop, Status
 
 LAG_WARNING_FRACTION = 0.1  # WARN when the garments fall behind by this share of the body's time...
 LAG_WARNING_MIN_S = 0.001  # ...and by at least this much, s (a window right after a resume holds little time)

@@ -15,12 +15,12 @@ Wires topics, parameters and timers to the ROS-free modules:
   markers again: with the topic's transient-local QoS, a late RViz sees the garment.
 - ``/diagnostics`` (``diagnostic_msgs/DiagnosticArray``) every ``diagnostics_period``: fps, substeps,
   lag, stage times, penetration, the garments' quality (``bones_through``, ``bones_through_frames``,
-  ``legs_off``, structural and shear stretch p99 and max: ``ros.frame_stats``), skeleton age,
+  ``legs_off``, structural and shear stretch p99 and max: ``runtime.frame_stats``), skeleton age,
   counts of refused input (``rejected_*``, ``input_*``),
   of skipped frames and re-dresses (``loop_*``) and of garment steps the solver's guard restored or
   re-fitted (``solver_restored``, ``solver_refitted``); OK running, WARN waiting, holding or lagging,
   ERROR for a skeleton that cannot be mapped or a frame that failed since the last status.
-- parameters: every row of ``params.PARAMETERS`` and ``ros.settings.NODE_PARAMETERS``, declared
+- parameters: every row of ``params.PARAMETERS`` and ``runtime.settings.NODE_PARAMETERS``, declared
   with descriptors. A change (parameter services, ``set_parameters``, the watched params file) is
   validated against the tables first: a bad value is refused with the table's reason and the old
   value stays; a good one takes effect at the next frame.
@@ -52,16 +52,16 @@ from ..body.pose_buffer import PoseBuffer
 from ..markers import frame_markers
 from ..params import ParameterError, SolverParams
 from ..rerun_log import RerunLogger, frame_payload
-from .character_loop import CharacterLoop, FrameResult, Throttle
+from ..runtime.character_loop import CharacterLoop, FrameResult, Throttle
 from .diagnostics import diagnostic_status, level_and_message, status_values
-from .frame_stats import FrameStats
-from .marker_cdr import serialize_marker_array
+from ..runtime.frame_stats import FrameStats
+from ..runtime.marker_cdr import serialize_marker_array
 from .params_watch import ParamsFileWatch
 from .ros_parameters import descriptor, parameter_type, params_file_from_args, plain, ros_value
-from .settings import (ALL_PARAMETERS, PARAMETER_ROWS, SOLVER_PARAMETER_NAMES, check_garments, garment_folders,
-                       is_read_only)
+from ..runtime.settings import (ALL_PARAMETERS, PARAMETER_ROWS, SOLVER_PARAMETER_NAMES, check_garments, garment_folders,
+                                is_read_only)
 from .spinning import spin_until_shutdown
-from .tf_input import IngestResult, TFDecoder, TransformBatch, ingest, ingest_batch, seconds_to_stamp
+from ..runtime.tf_input import IngestResult, TFDecoder, TransformBatch, ingest, ingest_batch, seconds_to_stamp
 
 NODE_NAME = "garment_sim_node"
 # /tf: reliable and volatile as tf2's listeners, so every publisher that works with tf2 matches. Keep
