@@ -5,7 +5,8 @@ cycles, stamps, memory of one frame's history) are unit-tested on ``PoseBuffer``
 test_pose_buffer.py; here they go through the node, which must count and report them and never
 publish NaN or an exploded mesh. Clock jumps, teleports, degenerate and partial skeletons are
 driven through ``CharacterLoop`` (ROS-free, deterministic time) where the node adds nothing but
-its clock. Bad parameters and files are tested where they are checked (see docs/robustness.md).
+its clock. Bad parameters and files are tested where they are checked (the README's "Robustness" section,
+"Parameters and files", names each test).
 """
 
 from __future__ import annotations
