@@ -5,7 +5,8 @@
                                                                         <-  ros (rclpy)  and  commands (CLI)
 
 - the core and ``runtime/`` import no rclpy or ROS message module, and nothing from ``ros/`` or
-  ``commands/``;
+  ``commands/``; the core imports, of the package, only itself and the shared tables and math
+  (``params``, ``transforms``, ``config_files``): nothing of the layers above it;
 - no library module (anything outside ``ros/``, ``commands/`` and ``cli.py``) imports ``ros/`` or
   ``commands/``;
 - only ``ros/`` imports rclpy or a ROS message package.
@@ -24,6 +25,7 @@ PACKAGE = "garment_sim_ros"
 ROOT = Path(__file__).resolve().parents[1] / PACKAGE
 
 CORE = ("body", "cloth", "collision")
+SHARED = ("params", "transforms", "config_files")  # top-level modules the core may use
 ROS_FREE = CORE + ("runtime",)
 # ROS client libraries and interface packages; ``rosbags`` (pure Python, no ROS install) is not one of them
 ROS_PREFIXES = ("rclpy", "rcl_interfaces", "builtin_interfaces", "rosidl", "tf2_ros", "rosbag2_py", "ament_index")
@@ -82,6 +84,9 @@ def violations(module: str, imported: set[str]) -> list[str]:
         for upper in ("ros", "commands"):
             if within(name, upper) and here not in ("ros", "commands") and module != f"{PACKAGE}.cli":
                 found.append(f"{module} imports {name}: only ros/, commands/ and cli.py import {upper}/")
+        if here in CORE and name.startswith(PACKAGE + ".") and len(found) == before:
+            if not any(within(name, allowed) for allowed in CORE + SHARED):
+                found.append(f"{module} imports {name}: the core imports only itself and {', '.join(SHARED)}")
         if len(found) > before:
             reported.append(name)
     return found
@@ -122,6 +127,9 @@ def test_the_runtime_and_the_core_are_ros_free_and_ros_holds_the_rclpy_modules()
     ("garment_sim_ros.runtime.character_loop", "from ..commands.simulate import run\n",
      ["garment_sim_ros.commands.simulate"]),
     ("garment_sim_ros.runtime", "from .. import ros\n", ["garment_sim_ros.ros"]),
+    # the core reaching up to the dressed character
+    ("garment_sim_ros.cloth.solver", "from ..quality import GarmentMeter\n", ["garment_sim_ros.quality"]),
+    ("garment_sim_ros.body.fitting", "from garment_sim_ros.runtime import settings\n", ["garment_sim_ros.runtime"]),
     # a library module importing the command layer, or a ROS-free module through an absolute name
     ("garment_sim_ros.benchmarking", "from .commands.simulate import make_character\n",
      ["garment_sim_ros.commands.simulate"]),
@@ -139,6 +147,7 @@ def test_the_checker_catches_a_planted_violation(module, source, expected):
     ("garment_sim_ros.commands.demo", "from ..ros.in_process import node_and_player\n"),
     ("garment_sim_ros.cli", "from .commands import simulate\n"),
     ("garment_sim_ros.markers", "from .runtime.marker_cdr import MarkerData\n"),
+    ("garment_sim_ros.cloth.model", "from ..params import SolverParams\nfrom ..body.skeleton import Skeleton\n"),
     ("garment_sim_ros.runtime.bag_io", "from rosbags.rosbag2 import Reader\n"),  # rosbags is not ROS
 ])
 def test_the_checker_allows_what_the_layers_allow(module, source):
