@@ -76,7 +76,7 @@ def publish(characters: int, joints: int, rate_hz: float, seconds: float) -> Non
     from rclpy.qos import QoSProfile
     from tf2_msgs.msg import TFMessage
 
-    from garment_sim_ros.ros.tf_input import stamp_words
+    from garment_sim_ros.runtime.tf_input import stamp_words
 
     rclpy.init()
     node = rclpy.create_node("tf_bench_publisher")

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from .body.sources import procedural_source
-from .commands.simulate import make_character
+from .dressing import make_character
 from .params import SolverParams
 
 MARKER_NAMESPACE = "garment"
@@ -67,15 +67,15 @@ def character_benchmark(garment: str, params: SolverParams, frame_s: float, fram
     frames of ``frame_s`` seconds after ``warmup`` untimed ones. Returns the per-frame medians."""
     from .markers import frame_markers
     from .rerun_log import RerunLogger, frame_payload
-    from .ros.marker_cdr import serialize_marker_array
-    from .ros.tf_input import seconds_to_stamp
+    from .runtime.marker_cdr import serialize_marker_array
+    from .runtime.tf_input import seconds_to_stamp
 
     if frames < 1 or warmup < 0:
         raise ValueError(f"--frames must be >= 1 and --warmup >= 0, got {frames} and {warmup}")
     if not frame_s > 0.0:
         raise ValueError(f"frame time must be > 0 s, got {frame_s!r}")
     source = procedural_source(gait)
-    character = make_character(source, [garment], params, resolution)
+    character = make_character(source.rest_pose, source.joint_map, [garment], params, resolution)
     solver = character.solvers[0]
     character.dress(source.pose(0.0), 0.0, source.motion(0.0))
 

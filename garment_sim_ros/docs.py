@@ -40,7 +40,7 @@ def solver_parameter_rows() -> list[str]:
 
 
 def node_parameter_rows() -> list[str]:
-    from .ros.settings import NODE_PARAMETERS
+    from .runtime.settings import NODE_PARAMETERS
 
     rows = ["| name | default | unit | allowed | meaning |", "|---|---|---|---|---|"]
     for p in NODE_PARAMETERS:

@@ -17,6 +17,9 @@ fitted and the garments cut, so the garments start clear of every volume by cons
 joint's rotation relative to its parent turns from the canonical pose's to the target pose's
 (slerp), the skeleton is composed down the tree with its own bones, and the cloth follows.
 
+``make_character`` is the one way to get one from a skeleton: fit the body to its rest pose, then dress
+it; a one-piece needs the detailed body (``detailed_body`` in its spec), so the garments choose the fit.
+
 Every garment comes from a spec (``cloth.spec``: a built-in's procedural source or the user's mesh),
 with its material's parameters in place of the run's. A mesh whose free vertices start inside the
 body's volumes on the rest pose is moved out before anything is simulated, and said so in ``notes``.
@@ -30,6 +33,8 @@ from typing import Sequence
 
 import numpy as np
 
+from .body.fitting import fit_body
+from .body.overrides import BodyOverrides
 from .body.pose_buffer import RootMotion, SampleStatus
 from .body.root import root_frame
 from .body.skeleton import SkeletonPose
@@ -44,6 +49,17 @@ from .quality import GarmentMeter, free_point_depth
 from .body.canonical import local_transforms
 from .body.skeleton import forward_kinematics
 from .transforms import compose, inverse, quat_slerp, yaw_quat
+
+
+def make_character(rest_pose: SkeletonPose, joint_map: dict[str, str], garments: Sequence[str | GarmentSpec],
+                   params: SolverParams, resolution: float = 1.0, *, garment_path: Sequence[str] = (),
+                   decimate_to: int | None = None, overrides: BodyOverrides | None = None) -> "DressedCharacter":
+    """Fit a body to ``rest_pose`` (``joint_map``: role -> frame name; ``overrides``: per-volume changes,
+    ``config/body.yaml``) and dress it in ``garments`` (built-in names, spec files or specs): the detailed
+    15-volume body when any garment's spec asks for it (the one-piece), else the 10-volume one."""
+    specs = [resolve_garment(g, garment_path) for g in garments]
+    body = fit_body(rest_pose, joint_map, detailed=any(s.detailed_body for s in specs), overrides=overrides)
+    return DressedCharacter(body, specs, params, resolution, garment_path, decimate_to)
 
 
 class DressedCharacter:

@@ -6,7 +6,7 @@
   diameters (``rerun_log.volume_ellipsoids``, so markers and Rerun show the same shapes).
 
 The meshes and volumes come in the shapes of ``rerun_log.frame_payload``; the result is
-``MarkerData`` for ``ros.marker_cdr.serialize_marker_array``.
+``MarkerData`` for ``runtime.marker_cdr.serialize_marker_array``.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from typing import Sequence
 import numpy as np
 from numba import njit
 
-from .ros.marker_cdr import ADD, DELETEALL, SPHERE, TRIANGLE_LIST, MarkerData
+from .runtime.marker_cdr import ADD, DELETEALL, SPHERE, TRIANGLE_LIST, MarkerData
 from .shading import BODY_RGB
 
 VOLUME_ALPHA = 0.35  # see-through, so the garment inside a wide volume stays visible

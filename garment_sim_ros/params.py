@@ -174,9 +174,6 @@ class SolverParams:
         values.update(changes)
         return SolverParams(**values)
 
-    def as_dict(self) -> dict[str, Any]:
-        return {f.name: getattr(self, f.name) for f in fields(self)}
-
 
 DEFAULT_PARAMS = SolverParams(**{p.name: p.default for p in PARAMETERS})
 

@@ -97,12 +97,6 @@ def quat_from_axis_angle(axis: np.ndarray, angle: np.ndarray | float) -> np.ndar
     return np.concatenate([axis * np.sin(half), np.cos(half)], axis=-1)
 
 
-def quat_yaw(q: np.ndarray) -> np.ndarray:
-    """Heading angle (rotation about +z) of the frame's x axis, radians."""
-    x_axis = quat_rotate(q, np.array([1.0, 0.0, 0.0]))
-    return np.arctan2(x_axis[..., 1], x_axis[..., 0])
-
-
 def yaw_quat(yaw: np.ndarray | float) -> np.ndarray:
     return quat_from_axis_angle(np.array([0.0, 0.0, 1.0]), yaw)
 

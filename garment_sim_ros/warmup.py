@@ -13,11 +13,11 @@ import time
 from .body.pose_buffer import PoseBuffer
 from .body.sources import procedural_source
 from .collision.collider import PARALLEL_MIN_POINTS
-from .commands.simulate import make_character
+from .dressing import make_character
 from .markers import frame_markers
 from .params import DEFAULT_PARAMS
 from .rerun_log import frame_payload
-from .ros.marker_cdr import serialize_marker_array
+from .runtime.marker_cdr import serialize_marker_array
 
 
 def warm_up() -> float:
@@ -25,7 +25,7 @@ def warm_up() -> float:
     tic = time.perf_counter()
     source = procedural_source("walk")
     for garments, resolution in ((["pants"], 1.0), (["one_piece"], 2.0)):
-        character = make_character(source, garments, DEFAULT_PARAMS, resolution)
+        character = make_character(source.rest_pose, source.joint_map, garments, DEFAULT_PARAMS, resolution)
         character.dress(source.pose(0.0), 0.0, settle_s=1.0 / 60.0)
         for k in range(1, 4):
             t = k / 60.0

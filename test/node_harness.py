@@ -27,7 +27,7 @@ from visualization_msgs.msg import MarkerArray
 
 from garment_sim_ros.body.pose_buffer import PoseBuffer
 from garment_sim_ros.body.procedural import ProceduralCharacter, walk
-from garment_sim_ros.ros.character_loop import Status
+from garment_sim_ros.runtime.character_loop import Status
 from garment_sim_ros.ros.node import GarmentSimNode
 
 CHARACTER = ProceduralCharacter(walk())

@@ -22,7 +22,7 @@ from garment_sim_ros.cloth.garments import GARMENT_NAMES, build_garment
 from garment_sim_ros.collision.collider import Collider
 from garment_sim_ros.params import DEFAULT_PARAMS
 from garment_sim_ros.quality import GarmentMeter
-from garment_sim_ros.ros.character_loop import CharacterLoop, Status
+from garment_sim_ros.runtime.character_loop import CharacterLoop, Status
 from garment_sim_ros.transforms import yaw_quat
 
 DATA = Path(__file__).parent / "data"
@@ -228,11 +228,12 @@ def test_yaw_of_the_canonical_pose_faces_forward(standing):
 
 
 def test_a_headless_run_dresses_again_at_a_loop_seam_instead_of_dragging_the_garment():
-    from garment_sim_ros.commands.simulate import make_character, simulate_frames
+    from garment_sim_ros.commands.simulate import simulate_frames
+    from garment_sim_ros.dressing import make_character
     from garment_sim_ros.params import preset
 
     source = bvh_source(str(DATA / "xia_angry_13_000.bvh"), loop=True)
-    character = make_character(source, ["short_skirt"], preset("si"), 1.0)
+    character = make_character(source.rest_pose, source.joint_map, ["short_skirt"], preset("si"), 1.0)
     times = np.arange(0.0, source.period + 0.2, FRAME)
     dressed, last = [], None
     for t, pose, reports in simulate_frames(source, character, times):
@@ -263,13 +264,13 @@ def test_right_after_dressing_no_free_point_is_inside_the_body_and_no_limb_bone_
     first pose with collision handling all the way: every garment starts outside the body on every clip,
     and no limb bone crosses it but the measured pinches above."""
     from garment_sim_ros.cloth.solver import FrameReport
-    from garment_sim_ros.commands.simulate import make_character
+    from garment_sim_ros.dressing import make_character
     from garment_sim_ros.params import preset
 
     source = bvh_source(str(DATA / clip_name), loop=False)
     pose = source.pose(0.0)
     for garment in GARMENT_NAMES:
-        character = make_character(source, [garment], preset("si"), 1.0)
+        character = make_character(source.rest_pose, source.joint_map, [garment], preset("si"), 1.0)
         character.dress(pose, 0.0, source.motion(0.0))
         report = FrameReport()
         character.measure([report], pose)
@@ -283,11 +284,11 @@ def test_a_guard_recovery_dresses_through_the_canonical_pose_and_the_next_frame_
     """Issue 11, item 5: a garment that ran away is re-dressed from the canonical pose onto the current
     pose with collision handling, reported, and on the next frame it is outside the body, no limb bone
     crosses it and the trouser legs are round the legs."""
-    from garment_sim_ros.commands.simulate import make_character
+    from garment_sim_ros.dressing import make_character
     from garment_sim_ros.params import preset
 
     source = bvh_source(str(DATA / "xia_strutting_01_000.bvh"), loop=False)
-    character = make_character(source, ["pants"], preset("si"), 1.0)
+    character = make_character(source.rest_pose, source.joint_map, ["pants"], preset("si"), 1.0)
     character.dress(source.pose(0.0), 0.0, source.motion(0.0))
     t = 0.0
     for _ in range(10):

@@ -112,8 +112,7 @@ def test_spring_force_and_damping_hand_computed():
 def test_length_correction_hand_computed():
     x = np.array([[0.0, 0.0, 0.0], [1.5, 0.0, 0.0]])
     springs = np.array([[0, 1]])
-    worst = kernels.length_correction(x, np.array([1.0, 1.0]), springs, np.array([1.0]), 1, 0.01)
-    assert worst == pytest.approx(1.5)
+    kernels.length_correction(x, np.array([1.0, 1.0]), springs, np.array([1.0]), 1, 0.01)
     assert np.allclose(x, [[0.245, 0, 0], [1.255, 0, 0]])  # both ends move by (1.5 - 1.01) / 2
     x = np.array([[0.0, 0.0, 0.0], [1.5, 0.0, 0.0]])
     kernels.length_correction(x, np.array([0.0, 1.0]), springs, np.array([1.0]), 1, 0.01)

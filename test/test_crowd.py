@@ -1,4 +1,4 @@
-"""Several characters in one process: the node's ``frame_prefixes`` (``ros.crowd``), /tf routed to each
+"""Several characters in one process: the node's ``frame_prefixes`` (``runtime.crowd``), /tf routed to each
 character in one pass (``TFDecoder``), and ``garment-sim crowd``'s output and independence."""
 
 from __future__ import annotations
@@ -24,9 +24,9 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from garment_sim_ros.cli import main
 from garment_sim_ros.params import ParameterError
-from garment_sim_ros.ros.character_loop import Status
-from garment_sim_ros.ros.crowd import character_prefixes
-from garment_sim_ros.ros.tf_input import TFDecoder, seconds_to_stamp
+from garment_sim_ros.runtime.character_loop import Status
+from garment_sim_ros.runtime.crowd import character_prefixes
+from garment_sim_ros.runtime.tf_input import TFDecoder, seconds_to_stamp
 
 BOB_OFFSET = (0.0, 4.0, 0.0)
 

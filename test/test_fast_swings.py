@@ -24,7 +24,7 @@ from garment_sim_ros.cloth.garments import build_garment
 from garment_sim_ros.cloth.model import build_cloth_model
 from garment_sim_ros.cloth.solver import FrameInput, GarmentSolver, substep_plan, volume_travel
 from garment_sim_ros.collision.volumes import ELLIPSOID, SPHERE, Volume, VolumeSet
-from garment_sim_ros.commands.simulate import make_character
+from garment_sim_ros.dressing import make_character
 from garment_sim_ros.params import DEFAULT_PARAMS
 from garment_sim_ros.transforms import quat_from_axis_angle, quat_multiply
 
@@ -55,7 +55,7 @@ def swing(garment: str, **changes):
     """Reports of every frame of the swing, and the substeps a frame got."""
     source = procedural_source("walk")
     character = ProceduralCharacter(walk())
-    dressed = make_character(source, [garment], DEFAULT_PARAMS.replace(**dict(changes)), 1.0)
+    dressed = make_character(source.rest_pose, source.joint_map, [garment], DEFAULT_PARAMS.replace(**dict(changes)))
     pose = swing_pose(character, 0.0)
     position, yaw = root_frame(pose, dressed.joint_map)
     still = np.zeros(3)

@@ -29,8 +29,8 @@ from garment_sim_ros.cloth.spec import (BUILTIN_SPECS, FIT_EASE_M, SpecError, bu
 from garment_sim_ros.collision.collider import Collider
 from garment_sim_ros.dressing import DressedCharacter
 from garment_sim_ros.params import DEFAULT_PARAMS, PARAMETER_TABLE, ParameterError
-from garment_sim_ros.ros.character_loop import Status
-from garment_sim_ros.ros.settings import check_garments
+from garment_sim_ros.runtime.character_loop import Status
+from garment_sim_ros.runtime.settings import check_garments
 
 ROOT = Path(__file__).resolve().parents[1]
 CAPE = ROOT / "config" / "garments" / "cape.yaml"

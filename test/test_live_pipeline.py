@@ -26,7 +26,7 @@ from rclpy.serialization import deserialize_message
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import MarkerArray
 
-from garment_sim_ros.ros.tf_input import TFDecoder, stamp_seconds
+from garment_sim_ros.runtime.tf_input import TFDecoder, stamp_seconds
 
 START_TIMEOUT_S = 30.0  # two processes import numba kernels and ROS on a shared machine
 RATE_HZ = 20.0

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from rclpy.serialization import deserialize_message, serialize_message
 from visualization_msgs.msg import Marker, MarkerArray
 
-from garment_sim_ros.ros.marker_cdr import (
+from garment_sim_ros.runtime.marker_cdr import (
     DELETE,
     SPHERE,
     TRIANGLE_LIST,
@@ -150,7 +150,7 @@ def test_bad_fields_are_refused_with_the_field_named(fields, message):
 
 
 def test_serializer_module_imports_no_rclpy():
-    code = ("import sys, garment_sim_ros.ros.marker_cdr; "
+    code = ("import sys, garment_sim_ros.runtime.marker_cdr; "
             "loaded = [m for m in sys.modules if m.split('.')[0] in ('rclpy', 'visualization_msgs', 'rpyutils')]; "
             "assert not loaded, loaded")
     subprocess.run([sys.executable, "-c", code], check=True)

@@ -32,7 +32,7 @@ from garment_sim_ros.cloth.garments import build_garment
 from garment_sim_ros.cloth.model import STRUCTURAL, build_cloth_model
 from garment_sim_ros.collision.collider import Collider
 from garment_sim_ros.collision.volumes import ELLIPSOID, Volume, VolumeSet
-from garment_sim_ros.commands.simulate import make_character
+from garment_sim_ros.dressing import make_character
 from garment_sim_ros.params import DEFAULT_PARAMS
 from garment_sim_ros.quality import rings_off_the_legs
 from garment_sim_ros.transforms import IDENTITY_QUAT, quat_conjugate, quat_multiply, transform_points, yaw_quat
@@ -130,7 +130,7 @@ def simulate(garment: str, frame_s: float, mode: str = "adaptive", max_substeps:
     params = DEFAULT_PARAMS.replace(collision_mode=mode)
     if max_substeps is not None:
         params = params.replace(max_substeps=max_substeps)
-    character = make_character(source, [garment], params, 1.0)
+    character = make_character(source.rest_pose, source.joint_map, [garment], params, 1.0)
     character.dress(source.pose(START_S), START_S, source.motion(START_S))
     solver = character.solvers[0]
     names = character.body.volumes.names()
@@ -235,7 +235,7 @@ def test_the_garments_rest_shapes_clear_the_fitted_body(lift_m):
     volume's bottom cut: lifted by a hair it was inside, and the static handling (keep z, push out
     radially in the cross-section) threw it 10 cm sideways across a thigh."""
     source = procedural_source("fast")
-    body = make_character(source, ["one_piece"], DEFAULT_PARAMS, 1.0).body  # the 15-volume body
+    body = make_character(source.rest_pose, source.joint_map, ["one_piece"], DEFAULT_PARAMS).body  # 15 volumes
     rest = body.rest_pose
     frames = [rest.skeleton.index(f) for f in body.volumes.frames]
     poses = body.volumes.world_poses(rest.positions[frames], rest.rotations[frames])

@@ -16,7 +16,8 @@ from garment_sim_ros.cloth.garments import build_garment
 from garment_sim_ros.cloth.model import SHEAR, STRUCTURAL, build_cloth_model
 from garment_sim_ros.cloth.solver import FrameReport
 from garment_sim_ros.collision.volumes import ELLIPSOID, Volume, VolumeSet
-from garment_sim_ros.commands.simulate import make_character, simulate_frames
+from garment_sim_ros.commands.simulate import simulate_frames
+from garment_sim_ros.dressing import make_character
 from garment_sim_ros.params import DEFAULT_PARAMS
 from garment_sim_ros.quality import (TARGETS, GarmentMeter, LimbTubes, report_scalars,
                                      segments_through_triangles)
@@ -86,7 +87,7 @@ def test_a_segment_touching_an_edge_or_a_vertex_crosses_so_none_slips_between_tw
 def dressed(garment: str):
     """A garment dressed on the procedural walker at its first pose: (character, pose)."""
     source = procedural_source("walk")
-    character = make_character(source, [garment], DEFAULT_PARAMS, 1.0)
+    character = make_character(source.rest_pose, source.joint_map, [garment], DEFAULT_PARAMS, 1.0)
     _, pose, _ = next(simulate_frames(source, character, [0.0]))
     return character, pose
 
@@ -186,7 +187,7 @@ def test_report_scalars_name_every_quality_field():
 
 
 def test_the_diagnostics_window_holds_its_worst_frame_counts_summed_over_the_garments():
-    from garment_sim_ros.ros.frame_stats import FrameStats
+    from garment_sim_ros.runtime.frame_stats import FrameStats
 
     stats = FrameStats()
     stats.record_frame([FrameReport(bones_through=1, structural_stretch_p99=1.2),

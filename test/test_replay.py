@@ -18,7 +18,7 @@ import pytest
 from conftest import local_ros_context
 from garment_sim_ros.body.sources import bvh_source
 from garment_sim_ros.commands.replay import MARKERS_TOPIC, Replay, configuration
-from garment_sim_ros.ros.bag_io import TF_TYPE, BagError, BagWriter, read_transforms
+from garment_sim_ros.runtime.bag_io import TF_TYPE, BagError, BagWriter, read_transforms
 
 CLIP = Path(__file__).parent / "data" / "cc_cmu_07_01_walk.bvh"
 RECORD_S = 3.4

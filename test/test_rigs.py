@@ -220,7 +220,7 @@ def test_the_node_dresses_every_convention_from_tf_as_a_game_export_publishes_it
 
     from garment_sim_ros.body.pose_buffer import PoseBuffer
     from garment_sim_ros.params import DEFAULT_PARAMS
-    from garment_sim_ros.ros.character_loop import CharacterLoop, Status
+    from garment_sim_ros.runtime.character_loop import CharacterLoop, Status
 
     rig = build_rig(convention, "x", static_root=True)
     motion = rig.walk(frames=12, fps=60.0)

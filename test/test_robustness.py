@@ -5,7 +5,8 @@ cycles, stamps, memory of one frame's history) are unit-tested on ``PoseBuffer``
 test_pose_buffer.py; here they go through the node, which must count and report them and never
 publish NaN or an exploded mesh. Clock jumps, teleports, degenerate and partial skeletons are
 driven through ``CharacterLoop`` (ROS-free, deterministic time) where the node adds nothing but
-its clock. Bad parameters and files are tested where they are checked (see docs/robustness.md).
+its clock. Bad parameters and files are tested where they are checked (the README's "Robustness" section,
+"Parameters and files", names each test).
 """
 
 from __future__ import annotations
@@ -30,9 +31,9 @@ from visualization_msgs.msg import Marker
 from garment_sim_ros.body.pose_buffer import PoseBuffer, SampleStatus
 from garment_sim_ros.cloth.solver import GarmentSolver
 from garment_sim_ros.params import DEFAULT_PARAMS
-from garment_sim_ros.ros.character_loop import BONE_CHECK_S, CLOCK_JUMP_BACK_S, CharacterLoop, Status
+from garment_sim_ros.runtime.character_loop import BONE_CHECK_S, CLOCK_JUMP_BACK_S, CharacterLoop, Status
 from garment_sim_ros.ros.diagnostics import level_and_message
-from garment_sim_ros.ros.tf_input import seconds_to_stamp
+from garment_sim_ros.runtime.tf_input import seconds_to_stamp
 
 FRAME = 1.0 / 60.0
 NAMES = CHARACTER.skeleton.names

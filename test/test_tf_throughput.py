@@ -32,9 +32,9 @@ from visualization_msgs.msg import MarkerArray
 from garment_sim_ros.body.pose_buffer import PoseBuffer
 from garment_sim_ros.body.sources import bvh_source, procedural_source
 from garment_sim_ros.params import DEFAULT_PARAMS
-from garment_sim_ros.ros.character_loop import BONE_CHECK_S, CharacterLoop, Status
-from garment_sim_ros.ros.marker_cdr import DELETEALL, SPHERE
-from garment_sim_ros.ros.tf_input import (TFDecoder, TransformBatch, ingest, ingest_batch, seconds_to_stamp,
+from garment_sim_ros.runtime.character_loop import BONE_CHECK_S, CharacterLoop, Status
+from garment_sim_ros.runtime.marker_cdr import DELETEALL, SPHERE
+from garment_sim_ros.runtime.tf_input import (TFDecoder, TransformBatch, ingest, ingest_batch, seconds_to_stamp,
                                           stamp_seconds)
 from garment_sim_ros.rerun_log import volume_ellipsoids
 from garment_sim_ros.transforms import compose, inverse, quat_rotate

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -97,7 +97,6 @@ class FrameReport:
     structural_stretch_max: float = 0.0  # (d) largest structural length / rest length
     shear_stretch_p99: float = 0.0  # (d) 99th percentile of shear spring length / rest length
     shear_stretch_max: float = 0.0  # (d) largest shear length / rest length
-    extra: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

@@ -228,10 +228,6 @@ class Collider:
                                    self.substep_end_positions, self.substep_end_rotations, x, out)
         return out.copy()
 
-    def reset_cache(self) -> None:
-        """Forget the recently hit volumes (after a teleport, say)."""
-        self.cache.fill(-1)
-
     def _check_points(self, x, v, inv_mass) -> None:
         n = self.n_points
         for name, array, shape in (("x", x, (n, 3)), ("v", v, (n, 3)), ("inv_mass", inv_mass, (n,))):

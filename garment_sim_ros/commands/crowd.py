@@ -3,7 +3,7 @@ with their number (offline, no ROS).
 
 The characters are the procedural walker, each at its own phase (``PHASE_S`` apart) and its own
 place (``SPACING_M`` apart side by side), each run as the node runs one of its ``frame_prefixes``
-(``ros.crowd.Member``: its /tf transforms into its own ``PoseBuffer`` in one batch per frame,
+(``runtime.crowd.Member``: its /tf transforms into its own ``PoseBuffer`` in one batch per frame,
 ``CharacterLoop.frame``, its markers), with the node's default parameters. A tick is what the node
 does at 60 Hz: every character's input, frame and markers, then one MarkerArray of them all
 serialized (handing the bytes to DDS is ``garment-sim publish``'s figure). ``step_ms`` is the
@@ -13,7 +13,7 @@ characters' ``CharacterLoop.frame`` (pose sampling, root motion, the solver, the
 1/60 s per tick with no waiting, so ``tick_ms`` is the compute a 60 fps node needs.
 
 The characters' garments go through the solver one after another: the cloth kernels hold the GIL
-and run on one thread, the collision kernels on numba's threads (``--threads``; ``ros.crowd``).
+and run on one thread, the collision kernels on numba's threads (``--threads``; ``runtime.crowd``).
 ``--processes P`` splits them over P processes running at once (one node per group of characters,
 the way past one process): the row is the slowest process's.
 
@@ -35,10 +35,10 @@ import numpy as np
 from ..benchmarking import load_average, progress, set_threads
 from ..body.procedural import ProceduralCharacter, walk
 from ..params import SolverParams
-from ..ros.character_loop import Status
-from ..ros.crowd import Member, character_namespace, crowd_markers, make_members
-from ..ros.marker_cdr import serialize_marker_array
-from ..ros.settings import SOLVER_PARAMETER_NAMES, default_values
+from ..runtime.character_loop import Status
+from ..runtime.crowd import Member, character_namespace, crowd_markers, make_members
+from ..runtime.marker_cdr import serialize_marker_array
+from ..runtime.settings import SOLVER_PARAMETER_NAMES, default_values
 from .simulate import parse_garments
 
 HELP = ("How many characters one process dresses at 60 fps: N walkers through the node's per-character "

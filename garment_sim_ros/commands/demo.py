@@ -38,7 +38,7 @@ def _progress(message: str) -> None:
 
 def run(args) -> int:
     from ..commands.simulate import parse_garments
-    from ..ros.settings import check_value
+    from ..runtime.settings import check_value
 
     garments = parse_garments(args.garments)
     if not args.duration > 0:
@@ -49,29 +49,14 @@ def run(args) -> int:
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")  # a demo talks to itself only
     Path(args.rrd).parent.mkdir(parents=True, exist_ok=True)
 
-    import rclpy
-    from rclpy.context import Context
-    from rclpy.executors import SingleThreadedExecutor
-    from rclpy.parameter import Parameter
+    from ..ros.in_process import node_and_player
+    from ..runtime.character_loop import Status
 
-    from ..ros.character_loop import Status
-    from ..ros.node import GarmentSimNode
-    from ..ros.skeleton_player import SkeletonPlayer
-
-    context = Context()
-    rclpy.init(context=context)
-    executor = SingleThreadedExecutor(context=context)
     player_parameters = {"bvh": args.bvh, "gait": args.gait, "speed": float(args.speed), "loop": True}
     node_parameters = {"garments": garments, "resolution": float(args.resolution), "rate_hz": float(args.rate),
                        "rerun_sink": "save", "rerun_path": str(args.rrd), "rerun_every_n": args.rerun_every_n}
-    player = SkeletonPlayer(context=context,
-                            parameter_overrides=[Parameter(k, value=v) for k, v in player_parameters.items()])
-    node = GarmentSimNode(context=context,
-                          parameter_overrides=[Parameter(k, value=v) for k, v in node_parameters.items()])
     windows: list[dict[str, float]] = []
-    try:
-        executor.add_node(player)
-        executor.add_node(node)
+    with node_and_player(node_parameters, player_parameters) as (executor, node):
         _progress(f"demo: {', '.join(garments)} on {'the clip ' + args.bvh if args.bvh else 'a procedural ' + args.gait}; "
                   f"dressing...")
         start = time.monotonic()
@@ -96,11 +81,6 @@ def run(args) -> int:
             if now - running_since >= args.duration:
                 break
         summary = _summary(node, windows, args.rrd)
-    finally:
-        executor.shutdown()
-        for n in (player, node):
-            n.destroy_node()
-        context.try_shutdown()
     if args.json:
         print(json.dumps(summary))
     else:

@@ -99,11 +99,13 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
     ``after_dressing(character)`` is called once the garments are on (a test moves the cloth there)."""
     from ..body.sources import bvh_source
     from ..params import preset
-    from .simulate import make_character, simulate_frames
+    from ..dressing import make_character
+    from .simulate import simulate_frames
 
     tic = time.perf_counter()
     source = bvh_source(run.clip, loop=False, speed=run.speed)
-    character = make_character(source, [run.garment], preset(run.preset), run.resolution, run.decimate)
+    character = make_character(source.rest_pose, source.joint_map, [run.garment], preset(run.preset), run.resolution,
+                               decimate_to=run.decimate)
     seconds = source.duration if run.duration is None else min(source.duration, run.duration)
     frames = int(math.floor(seconds * run.fps + 1e-9))
     if frames < 1:

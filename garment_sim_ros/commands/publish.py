@@ -52,7 +52,7 @@ def _median_ms(samples: list[float]) -> float:
 
 
 def _measure(publisher, n_vertices: int, repeats: int) -> dict:
-    from garment_sim_ros.ros.marker_cdr import TRIANGLE_LIST, MarkerData, serialize_marker_array
+    from garment_sim_ros.runtime.marker_cdr import TRIANGLE_LIST, MarkerData, serialize_marker_array
     from garment_sim_ros.ros.marker_objects import marker_array_message
 
     rng = np.random.default_rng(n_vertices)
@@ -84,15 +84,9 @@ def run(args: argparse.Namespace) -> int:
     domain_id = _domain_id(args.domain_id)
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 
-    import rclpy
-    from rclpy.context import Context
-    from visualization_msgs.msg import MarkerArray
+    from garment_sim_ros.ros.in_process import marker_publisher
 
-    context = Context()
-    rclpy.init(context=context, domain_id=domain_id)
-    try:
-        node = rclpy.create_node("garment_sim_publish_bench", context=context)
-        publisher = node.create_publisher(MarkerArray, "~/markers", 1)
+    with marker_publisher("garment_sim_publish_bench", domain_id) as publisher:
         if not args.json:
             print(f"MarkerArray publish, one TRIANGLE_LIST marker with colours, domain {domain_id}, "
                   f"median of {args.repeats}")
@@ -104,7 +98,4 @@ def run(args: argparse.Namespace) -> int:
             else:
                 print(f"{row['vertices']:>9} {row['cdr_ms']:>9.3f} {row['rclpy_points_ms']:>15.2f} "
                       f"{row['ratio']:>6.0f}x {row['message_bytes']:>10}", flush=True)
-        node.destroy_node()
-    finally:
-        context.try_shutdown()
     return 0

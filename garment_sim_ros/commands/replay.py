@@ -1,6 +1,6 @@
 """``garment-sim replay BAG``: the node's frame loop on a recorded bag, offline, as fast as it goes.
 
-The bag's /tf and /tf_static (``ros.bag_io``: rosbag2, MCAP or SQLite3) go through the node's own
+The bag's /tf and /tf_static (``runtime.bag_io``: rosbag2, MCAP or SQLite3) go through the node's own
 path: ``TFDecoder`` and ``ingest_batch`` (/tf), ``ingest`` (/tf_static), into a ``PoseBuffer``, and
 ``CharacterLoop`` dresses and simulates the character. Frames are on the bag's clock: frame ``k`` is
 at ``t0 + k / rate_hz`` (``t0`` the first message's record time) and sees every message recorded
@@ -53,8 +53,8 @@ def add_arguments(parser) -> None:
 def configuration(params_file: str = "", node_name: str = "/garment_sim_node", **given) -> dict:
     """The node's parameter values: the tables' defaults, the node's section of ``params_file``, then
     ``given`` (None: not given); each checked against its row (``ParameterError`` names what is allowed)."""
-    from ..ros.params_file import read_node_parameters
-    from ..ros.settings import check_value, default_values
+    from ..runtime.params_file import read_node_parameters
+    from ..runtime.settings import check_value, default_values
 
     values = default_values()
     if params_file:
@@ -77,10 +77,10 @@ class Replay:
         from ..body.pose_buffer import PoseBuffer
         from ..params import SolverParams
         from ..rerun_log import RerunLogger
-        from ..ros.bag_io import MARKER_ARRAY_TYPE, BagWriter, storage_of
-        from ..ros.character_loop import CharacterLoop
-        from ..ros.settings import SOLVER_PARAMETER_NAMES
-        from ..ros.tf_input import TFDecoder
+        from ..runtime.bag_io import MARKER_ARRAY_TYPE, BagWriter, storage_of
+        from ..runtime.character_loop import CharacterLoop
+        from ..runtime.settings import SOLVER_PARAMETER_NAMES
+        from ..runtime.tf_input import TFDecoder
 
         self.bag = Path(bag)
         storage = storage_of(self.bag)
@@ -109,8 +109,8 @@ class Replay:
 
     def _ingest(self, messages: list[tuple[int, bool, bytes]]) -> None:
         """One frame's messages into the buffer: /tf as one decoded batch, /tf_static one by one."""
-        from ..ros.bag_io import decode_tf
-        from ..ros.tf_input import TransformBatch, ingest, ingest_batch
+        from ..runtime.bag_io import decode_tf
+        from ..runtime.tf_input import TransformBatch, ingest, ingest_batch
 
         batches = []
         for _, static, data in messages:
@@ -131,9 +131,9 @@ class Replay:
         """Every frame from the bag's first message to its last; returns the summary."""
         from ..markers import frame_markers
         from ..rerun_log import frame_payload
-        from ..ros.bag_io import BagError, read_transforms
-        from ..ros.marker_cdr import serialize_marker_array
-        from ..ros.tf_input import seconds_to_stamp
+        from ..runtime.bag_io import BagError, read_transforms
+        from ..runtime.marker_cdr import serialize_marker_array
+        from ..runtime.tf_input import seconds_to_stamp
 
         v = self.values
         step_ns = 1e9 / v["rate_hz"]

@@ -11,6 +11,7 @@ import numpy as np
 from ..body.sources import GAITS, bvh_source, procedural_source
 from ..cloth.garments import GARMENT_NAMES
 from ..cloth.spec import parse_garment_list
+from ..dressing import make_character
 from ..params import PRESETS, preset
 
 HELP = ("Dress the procedural walking character (or a BVH clip) and simulate it without ROS, printing "
@@ -41,18 +42,6 @@ def add_arguments(parser) -> None:
     parser.add_argument("--preset", default="si", choices=sorted(PRESETS), help="parameter preset")
     parser.add_argument("--every", type=int, default=10, help="print every N-th frame (default 10)")
     parser.add_argument("--json", action="store_true", help="one JSON object per printed frame, then a summary")
-
-
-def make_character(source, garments, params, resolution, decimate_to: int | None = None):
-    """Fit a body to ``source``'s rest pose and dress it in ``garments`` (built-in names, spec files or
-    specs); the 15-volume body when a garment's spec asks for it (the one-piece)."""
-    from ..body.fitting import fit_body
-    from ..cloth.spec import resolve_garment
-    from ..dressing import DressedCharacter
-
-    specs = [resolve_garment(g) for g in garments]
-    body = fit_body(source.rest_pose, source.joint_map, detailed=any(s.detailed_body for s in specs))
-    return DressedCharacter(body, specs, params, resolution, decimate_to=decimate_to)
 
 
 def parse_garments(text: str) -> list[str]:
@@ -101,7 +90,8 @@ def run(args) -> int:
         raise ValueError(f"--export: {args.export!r} must end in .npz")
     params = preset(args.preset)
     source = run_source(args)
-    character = make_character(source, garments, params, args.resolution, args.decimate)
+    character = make_character(source.rest_pose, source.joint_map, garments, params, args.resolution,
+                               decimate_to=args.decimate)
     frames = int(round(args.duration * args.fps))
     if source.duration is not None:  # a clip that does not loop: the run ends with it
         frames = min(frames, int(math.floor(source.duration * args.fps + 1e-9)))

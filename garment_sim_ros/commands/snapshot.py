@@ -64,9 +64,11 @@ def dressed_at(source, garments: list[str], time_s: float, fps: float, resolutio
                decimate_to: int | None = None):
     """Simulate ``garments`` on ``source`` from t = 0 to ``time_s``; returns (character, pose at time_s)."""
     from ..params import preset
-    from .simulate import make_character, simulate_frames
+    from ..dressing import make_character
+    from .simulate import simulate_frames
 
-    character = make_character(source, garments, preset("si"), resolution, decimate_to)
+    character = make_character(source.rest_pose, source.joint_map, garments, preset("si"), resolution,
+                               decimate_to=decimate_to)
     frames = max(1, math.ceil(time_s * fps))
     for _, pose, _ in simulate_frames(source, character, np.linspace(0.0, time_s, frames + 1)):
         pass

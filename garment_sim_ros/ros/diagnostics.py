@@ -12,8 +12,8 @@ from typing import Any, Mapping, Sequence
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 
-from .character_loop import CharacterLoop, Status
-from .crowd import Member
+from ..runtime.character_loop import CharacterLoop, Status
+from ..runtime.crowd import Member
 
 LAG_WARNING_FRACTION = 0.1  # WARN when the garments fall behind by this share of the body's time...
 LAG_WARNING_MIN_S = 0.001  # ...and by at least this much, s (a window right after a resume holds little time)

@@ -11,7 +11,7 @@ from geometry_msgs.msg import Point, Pose, Quaternion, Vector3
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
-from garment_sim_ros.ros.marker_cdr import MarkerData
+from garment_sim_ros.runtime.marker_cdr import MarkerData
 
 
 def _color(rgba) -> ColorRGBA:

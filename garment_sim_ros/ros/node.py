@@ -4,7 +4,7 @@ Wires topics, parameters and timers to the ROS-free modules:
 
 - ``/tf`` and ``/tf_static`` (``tf2_msgs/TFMessage``; static: transient local) into a ``PoseBuffer``;
   only frames starting with ``frame_prefix`` are this character's. With ``frame_prefixes`` one node
-  dresses several characters, each its own buffer and loop (``ros.crowd``): each transform goes to
+  dresses several characters, each its own buffer and loop (``runtime.crowd``): each transform goes to
   its character in one pass, one MarkerArray per frame holds them all, each character in its own
   namespace, and /diagnostics has a status per character. /tf is taken raw and drained at
   the start of every frame, decoded by ``tf_input.TFDecoder`` (numpy), so 100+ joints at 120 Hz and
@@ -18,12 +18,12 @@ Wires topics, parameters and timers to the ROS-free modules:
   markers again: with the topic's transient-local QoS, a late RViz sees the garment.
 - ``/diagnostics`` (``diagnostic_msgs/DiagnosticArray``) every ``diagnostics_period``: fps, substeps,
   lag, stage times, penetration, the garments' quality (``bones_through``, ``bones_through_frames``,
-  ``legs_off``, structural and shear stretch p99 and max: ``ros.frame_stats``), skeleton age,
+  ``legs_off``, structural and shear stretch p99 and max: ``runtime.frame_stats``), skeleton age,
   counts of refused input (``rejected_*``, ``input_*``),
   of skipped frames and re-dresses (``loop_*``) and of garment steps the solver's guard restored or
   re-fitted (``solver_restored``, ``solver_refitted``); OK running, WARN waiting, holding or lagging,
   ERROR for a skeleton that cannot be mapped or a frame that failed since the last status.
-- parameters: every row of ``params.PARAMETERS`` and ``ros.settings.NODE_PARAMETERS``, declared
+- parameters: every row of ``params.PARAMETERS`` and ``runtime.settings.NODE_PARAMETERS``, declared
   with descriptors. A change (parameter services, ``set_parameters``, the watched params file) is
   validated against the tables first: a bad value is refused with the table's reason and the old
   value stays; a good one takes effect at the next frame.
@@ -52,16 +52,16 @@ from visualization_msgs.msg import MarkerArray
 
 from ..params import ParameterError, SolverParams
 from ..rerun_log import RerunLogger
-from .character_loop import FrameResult, Throttle
-from .crowd import Member, character_namespace, character_prefixes, crowd_markers, make_members, route_tf
+from ..runtime.character_loop import FrameResult, Throttle
+from ..runtime.crowd import Member, character_namespace, character_prefixes, crowd_markers, make_members, route_tf
+from ..runtime.marker_cdr import serialize_marker_array
 from .diagnostics import crowd_statuses
-from .marker_cdr import serialize_marker_array
 from .params_watch import ParamsFileWatch
 from .ros_parameters import descriptor, parameter_type, params_file_from_args, plain, ros_value
-from .settings import (ALL_PARAMETERS, PARAMETER_ROWS, SOLVER_PARAMETER_NAMES, check_garments, garment_folders,
-                       is_read_only)
+from ..runtime.settings import (ALL_PARAMETERS, PARAMETER_ROWS, SOLVER_PARAMETER_NAMES, check_garments, garment_folders,
+                                is_read_only)
 from .spinning import spin_until_shutdown
-from .tf_input import TFDecoder, ingest
+from ..runtime.tf_input import TFDecoder, ingest
 
 NODE_NAME = "garment_sim_node"
 # /tf: reliable and volatile as tf2's listeners, so every publisher that works with tf2 matches. Keep
@@ -329,7 +329,7 @@ class GarmentSimNode(Node):
         except Exception:  # a frame must never take the node down: report it and go on
             self._frame_failed()
             members = []
-        for member in members:  # one after another: see ros.crowd
+        for member in members:  # one after another: see runtime.crowd
             try:
                 result = member.loop.frame(self._frame_time, now_s)
                 if result is not None:

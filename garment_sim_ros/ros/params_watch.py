@@ -17,9 +17,9 @@ from typing import TYPE_CHECKING, Any
 from rclpy.parameter import Parameter
 
 from ..params import ParameterError
-from .params_file import FileWatch, ParamsFileError, read_node_parameters
+from ..runtime.params_file import FileWatch, ParamsFileError, read_node_parameters
 from .ros_parameters import plain, ros_value
-from .settings import PARAMETER_ROWS, is_read_only
+from ..runtime.settings import PARAMETER_ROWS, is_read_only
 
 if TYPE_CHECKING:
     from .node import GarmentSimNode

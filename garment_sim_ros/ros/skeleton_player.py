@@ -9,7 +9,7 @@ Playback time starts at 0 on the first tick and advances ``speed`` times as fast
 does not loop holds its last frame once it ends, still stamped with the current time.
 
 With ``record`` set, every message published is also written to a new rosbag2 at that path
-(``record_storage``: mcap or sqlite3; ``ros.bag_io``), recorded at its stamp: input for
+(``record_storage``: mcap or sqlite3; ``runtime.bag_io``), recorded at its stamp: input for
 ``garment-sim replay`` and its tests, no ``ros2 bag`` needed.
 
     skeleton_player --ros-args -p bvh:=clip.bvh -p speed:=2.0 -p frame_prefix:=alice/
@@ -32,7 +32,7 @@ from rclpy.serialization import serialize_message
 from tf2_msgs.msg import TFMessage
 
 from ..body.sources import GAITS, MotionSource, bvh_source, procedural_source
-from .bag_io import STORAGES, TF_TYPE, BagError, BagWriter
+from ..runtime.bag_io import STORAGES, TF_TYPE, BagError, BagWriter
 from .spinning import spin_until_shutdown
 
 NODE_NAME = "skeleton_player"

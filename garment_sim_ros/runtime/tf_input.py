@@ -4,7 +4,7 @@ CDR bytes with ``TFDecoder``; the node takes /tf as bytes, ``ingest`` serves /tf
 One character per frame prefix: a transform belongs to the character when its child frame starts
 with the prefix (every transform when the prefix is empty); others are another character's and
 are skipped without complaint. ``TFDecoder`` routes every transform of a message to its character
-among several prefixes in one pass (a crowd in one node: ``ros.crowd``). Frame names lose a leading '/' (tf2 does the same). What the
+among several prefixes in one pass (a crowd in one node: ``runtime.crowd``). Frame names lose a leading '/' (tf2 does the same). What the
 buffer refuses (NaN, zero quaternions, cycles, far too old or future stamps...) is counted there
 (``PoseBuffer.rejected``) and the first reason is kept for a throttled log line.
 """
@@ -117,7 +117,7 @@ class TFDecoder:
     """Decodes serialized ``tf2_msgs/TFMessage`` bytes into ``TransformBatch``es: one per prefix in
     ``prefixes`` (a string: one character), of the transforms whose child frame starts with it
     (another character's, or no one's, are counted, never built). A child is routed to the first
-    prefix it starts with; ``ros.crowd.check_prefixes`` keeps a node's prefixes from overlapping.
+    prefix it starts with; ``runtime.crowd.check_prefixes`` keeps a node's prefixes from overlapping.
 
     Layouts are cached (at most ``max_layouts``; a publisher whose frame names change every
     message costs a parse each time, still without Python message objects)."""

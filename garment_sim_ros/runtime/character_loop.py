@@ -60,7 +60,6 @@ from typing import Sequence
 
 import numpy as np
 
-from ..body.fitting import fit_body
 from ..body.overrides import load_body_overrides
 from ..body.joint_map import auto_joint_map, load_joint_map
 from ..body.pose_buffer import MAX_FRAME_SPEED, PoseBuffer, SampleStatus
@@ -68,7 +67,7 @@ from ..body.canonical import canonical_pose, local_transforms
 from ..body.skeleton import Skeleton, SkeletonPose
 from ..cloth.solver import FrameReport
 from ..cloth.spec import resolve_garment
-from ..dressing import DressedCharacter
+from ..dressing import DressedCharacter, make_character
 from ..params import SolverParams
 
 RESUME_GAP_S = 1.0  # a hold longer than this re-dresses (the body moved arbitrarily meanwhile)
@@ -437,13 +436,14 @@ class CharacterLoop:
         overrides = load_body_overrides(self.body_file) if self.body_file else None
         self._spec_stamps = {Path(g): Path(g).stat().st_mtime for g in self.garments if Path(g).is_file()}
         specs = [resolve_garment(g, self.garment_path) for g in self.garments]
+        # stamped before dressing: a mesh refused while dressing is retried once its file is saved again
         self._spec_stamps.update({f: f.stat().st_mtime for s in specs for f in (s.path, s.mesh) if f is not None})
-        body = fit_body(canonical_pose(pose, joint_map), joint_map, detailed=any(s.detailed_body for s in specs),
-                        overrides=overrides)
-        if body.estimated:
-            self._log("warning", "estimated", f"body measurement(s) {', '.join(body.estimated)} were out of human "
-                      "range for this skeleton and were estimated from its height; override them with body_file")
-        character = DressedCharacter(body, specs, self.params, self.resolution)
+        character = make_character(canonical_pose(pose, joint_map), joint_map, specs, self.params, self.resolution,
+                                   overrides=overrides)
+        if character.body.estimated:
+            self._log("warning", "estimated", f"body measurement(s) {', '.join(character.body.estimated)} were out "
+                      "of human range for this skeleton and were estimated from its height; override them with "
+                      "body_file")
         for note in character.notes:
             self._log("warning", "moved_out", note)
         return character, joint_map
