@@ -12,40 +12,26 @@ from garment_sim_ros.body.sources import bvh_source
 from garment_sim_ros.cloth import kernels
 from garment_sim_ros.cloth.garments import GarmentMesh, build_garment
 from garment_sim_ros.cloth.model import build_cloth_model
-from garment_sim_ros.cloth.solver import FrameInput, GarmentSolver
+from garment_sim_ros.cloth.solver import GarmentSolver
 from garment_sim_ros.commands.simulate import make_character, simulate_frames
 from garment_sim_ros.params import DEFAULT_PARAMS
-from garment_sim_ros.transforms import IDENTITY_QUAT
+from test_cloth import still_frame, strip_mesh
 
 CLIP = Path(__file__).resolve().parent / "data" / "xia_old_13_000.bvh"  # the shortest real clip
-SPACING = 0.05  # m, the strip's grid
+SPACING = 0.05  # m, ``strip_mesh``'s grid
 
 
-def strip(width: int = 4, length: int = 8, island: bool = False) -> GarmentMesh:
-    """A vertical strip in the x-z plane hanging from its top row; ``island`` adds a triangle joined to nothing."""
-    xs, zs = np.meshgrid(np.arange(width) * SPACING, -np.arange(length) * SPACING)
-    vertices = np.stack([xs.ravel(), np.zeros(xs.size), zs.ravel()], axis=1)
-    triangles = []
-    for r in range(length - 1):
-        for c in range(width - 1):
-            a, b, d, e = r * width + c, r * width + c + 1, (r + 1) * width + c, (r + 1) * width + c + 1
-            triangles += [(a, d, e), (a, e, b)]
-    if island:
-        n = len(vertices)
-        vertices = np.concatenate([vertices, [[1.0, 0.0, 0.0], [1.1, 0.0, 0.0], [1.0, 0.0, -0.1]]])
-        triangles.append((n, n + 2, n + 1))
-    return GarmentMesh("strip", vertices, np.array(triangles), {"pelvis": np.arange(width)})
-
-
-def still(t0: float, t1: float) -> FrameInput:
-    zero, frame_q = np.zeros(3), np.array([IDENTITY_QUAT])
-    return FrameInput(t0, t1, zero, 0.0, zero, 0.0, zero, zero, 0.0, 0.0, zero[None], frame_q, zero[None], frame_q)
+def with_island(mesh: GarmentMesh) -> GarmentMesh:
+    """``mesh`` plus a triangle joined to nothing."""
+    n = len(mesh.vertices)
+    vertices = np.concatenate([mesh.vertices, [[1.0, 0.0, 0.0], [1.1, 0.0, 0.0], [1.0, 0.0, -0.1]]])
+    return GarmentMesh(mesh.name, vertices, np.concatenate([mesh.triangles, [[n, n + 2, n + 1]]]), mesh.attachments)
 
 
 # ----------------------------------------------------------------------------- tethers
 
 def test_tether_anchor_is_the_nearest_attached_point_along_the_cloth():
-    model = build_cloth_model(strip(island=True))
+    model = build_cloth_model(with_island(strip_mesh(width=4, length=8, spacing=SPACING)))
     width, grid = 4, 4 * 8
     for i in range(width, grid):  # straight up the column, one edge per row
         assert model.tether_anchors[i] == i % width
@@ -86,7 +72,7 @@ def test_tethers_hold_a_swinging_strip_without_adding_energy():
                                     correction_iterations=1, limit_ratio=1.0, substep=0.001, max_substeps=20,
                                     stretch_stiffness=0.5, shear_stiffness=0.2, bend_stiffness=0.05,
                                     tether_slack=0.0)
-    model = build_cloth_model(strip())
+    model = build_cloth_model(strip_mesh(width=4, length=8, spacing=SPACING))
     free = model.tether_anchors >= 0
 
     def swing(tethers: int):
@@ -105,7 +91,7 @@ def test_tethers_hold_a_swinging_strip_without_adding_energy():
 
         start, energies, reach = energy(), [], []
         for k in range(200):
-            solver.advance(still(k * 0.01, (k + 1) * 0.01))
+            solver.advance(still_frame(k * 0.01, (k + 1) * 0.01))
             x = solver.state.positions
             energies.append(energy())
             reach.append(np.max(np.linalg.norm(x[free] - x[model.tether_anchors[free]], axis=1)
