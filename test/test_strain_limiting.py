@@ -106,7 +106,7 @@ def test_tethers_hold_a_swinging_strip_without_adding_energy():
 
 # ----------------------------------------------------------------------------- strain limiting after collision
 
-def test_contact_weights_and_keep_where_deeper_hand_computed():
+def test_contact_weights_and_keep_where_inside_hand_computed():
     x = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]])
     before = x.copy()
     before[1, 2] = -0.01  # the collision handling moved point 1
@@ -117,9 +117,8 @@ def test_contact_weights_and_keep_where_deeper_hand_computed():
     kept_x, kept_v = x.copy(), np.zeros((3, 3))
     v = np.ones((3, 3))
     moved = x + 0.1
-    assert kernels.keep_where_deeper(moved, v, kept_x, kept_v, np.array([0.0, 0.002, 0.0]),
-                                     np.array([0.0, 0.001, 0.004])) == 1
-    assert np.allclose(moved[:2], x[:2] + 0.1) and np.array_equal(moved[2], x[2])  # only the deeper one went back
+    assert kernels.keep_where_inside(moved, v, kept_x, kept_v, np.array([0.0, 0.0, 0.004])) == 1
+    assert np.allclose(moved[:2], x[:2] + 0.1) and np.array_equal(moved[2], x[2])  # only the one inside went back
     assert np.array_equal(v[2], [0.0, 0.0, 0.0]) and np.array_equal(v[:2], np.ones((2, 3)))
 
 

@@ -137,12 +137,11 @@ def contact_weights(x, x_before, inv_mass, mobility, out):
 
 
 @njit(cache=True)
-def keep_where_deeper(x, v, x_kept, v_kept, depth_kept, depth):
-    """Points now deeper inside a volume (``depth``) than they were (``depth_kept``) go back to
-    ``x_kept`` with ``v_kept``; returns how many did."""
+def keep_where_inside(x, v, x_kept, v_kept, depth):
+    """Points inside a volume (``depth`` > 0) go back to ``x_kept`` with ``v_kept``; returns how many did."""
     restored = 0
     for i in range(x.shape[0]):
-        if depth[i] > depth_kept[i]:
+        if depth[i] > 0.0:
             for c in range(3):
                 x[i, c] = x_kept[i, c]
                 v[i, c] = v_kept[i, c]
