@@ -8,8 +8,8 @@ bad value and what is allowed.
 
 Presets: ``PRESETS["si"]`` (defaults, SI units) and ``PRESETS["memo"]``, the parameter set
 of the memo's experiments (§7: mass 20, gravity 0.5, spring 10000, damping 100, air 20,
-limit 1 %, friction 0.2, 6 iterations, 2 correction iterations, 0.04 s time step). The
-memo's "0.04 s time step" is read as the *frame* time, split into 6 substeps (the reading
+limit 1 %, friction 0.2, 6 iterations, 2 correction iterations, 0.04 s time step; neither
+the strain limiting after collision nor the tethers, both beyond the memo). The memo's "0.04 s time step" is read as the *frame* time, split into 6 substeps (the reading
 that is stable with explicit Euler; a 0.04 s substep with 6 per frame would simulate 0.24 s
 per frame, slower than the 31 fps it reports).
 """
@@ -81,6 +81,16 @@ PARAMETERS: tuple[Param, ...] = (
           "Provot length-correction iterations per substep (contacts are handled after the first)"),
     Param("limit_ratio", 0.01, "1", 0.0, 1.0,
           "springs longer than (1 + limit_ratio) x rest length are shortened"),
+    Param("strain_limit_iterations", 8, "1", 0, 200,
+          "length-correction iterations after collision handling (the last projection of a substep); points in "
+          "contact move by contact_mobility of their share, points it would leave deeper in a volume stay; 0: off"),
+    Param("contact_mobility", 0.5, "1", 0.0, 1.0,
+          "share of the strain limiting's correction a point in contact takes (0: contacts hold, 1: as free points)"),
+    Param("tethers", 1, "1", 0, 1,
+          "long-range attachments (1: on, 0: off): each free point stays within (1 + tether_slack) x its rest "
+          "distance along the cloth from the nearest attached point, after every correction iteration"),
+    Param("tether_slack", 0.02, "1", 0.0, 1.0,
+          "how much farther than its rest distance along the cloth a point may go from its tether anchor"),
     # material
     Param("areal_density", 0.15, "kg/m^2", 1e-4, 10.0,
           "cloth mass per area; a point's mass is a third of its triangles' area times this"),
@@ -137,6 +147,10 @@ class SolverParams:
     limb_step_ratio: float
     correction_iterations: int
     limit_ratio: float
+    strain_limit_iterations: int
+    contact_mobility: float
+    tethers: int
+    tether_slack: float
     areal_density: float
     point_mass: float
     stretch_stiffness: float
@@ -195,6 +209,8 @@ PRESETS: dict[str, SolverParams] = {
         limb_step_ratio=0.0,  # the memo's fixed substeps
         correction_iterations=2,
         substep=0.04 / 6,
+        strain_limit_iterations=0,  # beyond the memo: its experiments had neither
+        tethers=0,
     ),
 }
 

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from .cloth.kernels import spring_stretches
 from .cloth.model import SHEAR, STRUCTURAL
 from .collision.crossing import segment_crosses_triangle, segment_misses_triangle_box
 from .collision.kernels import to_local
@@ -106,15 +107,6 @@ def rings_around(x, ring_vertices, ring_starts, ring_volumes, pos, rot, cuts, ar
                 break
 
 
-@njit(cache=True)
-def spring_stretches(x, springs, rest, out):
-    """Length / rest length of every spring (S, 2) of points ``x`` (N, 3); writes ``out`` (S,)."""
-    for s in range(springs.shape[0]):
-        a, b = springs[s, 0], springs[s, 1]
-        dx, dy, dz = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1], x[b, 2] - x[a, 2]
-        out[s] = math.sqrt(dx * dx + dy * dy + dz * dz) / rest[s]
-
-
 # ----------------------------------------------------------------------------- per garment
 
 def free_point_depth(solver) -> float:
@@ -192,7 +184,7 @@ class GarmentMeter:
                                                                                ("shear", SHEAR))}
         self._springs = np.ascontiguousarray(model.springs)
         self._rest = np.ascontiguousarray(model.rest_lengths)
-        self._stretch = np.zeros(len(model.springs))
+        self._stretch = np.zeros(model.num_correction_springs)  # structural and shear come first
         self._crossed = np.zeros(len(self.bones), dtype=np.bool_)
 
     def bone_segments(self, pose) -> tuple[np.ndarray, np.ndarray]:
@@ -209,11 +201,15 @@ class GarmentMeter:
         return [b[0] for b, hit in zip(self.bones, self._crossed) if hit]
 
     def stretch(self, positions: np.ndarray) -> dict[str, tuple[float, float]]:
-        """``{"structural": (p99, max), "shear": (p99, max)}`` of length / rest length."""
+        """``{"structural": (p99, max), "shear": (p99, max)}`` of length / rest length at ``positions`` (N, 3)."""
         spring_stretches(np.ascontiguousarray(positions, dtype=float), self._springs, self._rest, self._stretch)
+        return self.stretch_figures(self._stretch)
+
+    def stretch_figures(self, stretches: np.ndarray) -> dict[str, tuple[float, float]]:
+        """``stretch``'s figures from the structural and shear springs' length / rest length (S_c,)."""
         figures = {}
         for name, index in self._kinds.items():
-            values = self._stretch[index]
+            values = stretches[index]
             figures[name] = ((float(np.percentile(values, PERCENTILE)), float(values.max())) if len(values)
                              else (0.0, 0.0))
         return figures
@@ -225,7 +221,7 @@ class GarmentMeter:
         report.bones_through = len(self.bones_through(world_positions, pose))
         off = self.tubes.rings_off(world_positions, volume_positions, volume_rotations)
         report.legs_off = int(np.count_nonzero(off))
-        stretch = self.stretch(solver.state.positions)
+        stretch = self.stretch_figures(solver.stretches)  # the solver measured them after the frame
         report.structural_stretch_p99, report.structural_stretch_max = stretch["structural"]
         report.shear_stretch_p99, report.shear_stretch_max = stretch["shear"]
 

@@ -101,6 +101,51 @@ def length_correction(x, inv_mass, springs, rest, count, limit_ratio):
 
 
 @njit(cache=True)
+def tether_constraints(x, inv_mass, anchors, lengths, scale):
+    """Long-range attachments: a free point i farther than ``scale * lengths[i]`` from its anchor
+    ``anchors[i]`` (an attached point; -1: none) goes straight back towards it to that distance.
+    Unilateral (a point nearer than that is left alone) and only the free point moves: the anchor is
+    carried by its segment. Returns how many points were moved."""
+    moved = 0
+    for i in range(x.shape[0]):
+        a = anchors[i]
+        if a < 0 or inv_mass[i] == 0.0:
+            continue
+        dx, dy, dz, distance = _spring_vector(x, a, i)
+        limit = scale * lengths[i]
+        if distance <= limit:
+            continue
+        pull = 1.0 - limit / distance
+        x[i, 0] -= pull * dx
+        x[i, 1] -= pull * dy
+        x[i, 2] -= pull * dz
+        moved += 1
+    return moved
+
+
+@njit(cache=True)
+def contact_weights(x, x_before, inv_mass, mobility, out):
+    """Inverse masses for the strain limiting after collision handling: a point the handling moved
+    (``x`` differs from ``x_before``) is in contact and takes ``mobility`` of its share; ``out`` (N,)."""
+    for i in range(x.shape[0]):
+        touched = x[i, 0] != x_before[i, 0] or x[i, 1] != x_before[i, 1] or x[i, 2] != x_before[i, 2]
+        out[i] = inv_mass[i] * mobility if touched else inv_mass[i]
+
+
+@njit(cache=True)
+def keep_where_inside(x, v, x_kept, v_kept, depth):
+    """Points inside a volume (``depth`` > 0) go back to ``x_kept`` with ``v_kept``; returns how many did."""
+    restored = 0
+    for i in range(x.shape[0]):
+        if depth[i] > 0.0:
+            for c in range(3):
+                x[i, c] = x_kept[i, c]
+                v[i, c] = v_kept[i, c]
+            restored += 1
+    return restored
+
+
+@njit(cache=True)
 def velocities_from_positions(x, x_start, h, v):
     """Memo Eq. 5-2: ``v = (x_corrected - x_start) / h``."""
     inv_h = 1.0 / h
@@ -120,11 +165,13 @@ def set_attached(x, attached, targets0, targets1, fraction):
 
 
 @njit(cache=True)
-def max_stretch(x, springs, rest, count):
-    """The largest length / rest length over the first ``count`` springs."""
+def spring_stretches(x, springs, rest, out):
+    """Length / rest length of the first ``len(out)`` springs (S, 2) of points ``x`` (N, 3) into ``out``;
+    returns the largest (0 for none). The one stretch figure of the solver, its guard and ``quality``."""
     worst = 0.0
-    for s in range(count):
-        worst = max(worst, _spring_vector(x, springs[s, 0], springs[s, 1])[3] / rest[s])
+    for s in range(out.shape[0]):
+        out[s] = _spring_vector(x, springs[s, 0], springs[s, 1])[3] / rest[s]
+        worst = max(worst, out[s])
     return worst
 
 

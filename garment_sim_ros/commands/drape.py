@@ -145,8 +145,8 @@ class DrapeScene:
 
     def stretch(self) -> float:
         """Largest structural (mesh edge) length / rest length now."""
-        return float(kernels.max_stretch(self.positions, self.model.springs, self.model.rest_lengths,
-                                         self._structural))
+        return float(kernels.spring_stretches(self.positions, self.model.springs, self.model.rest_lengths,
+                                              np.empty(self._structural)))
 
 
 def run_drape(n: int = DEFAULT_N, frames: int = DEFAULT_FRAMES, warmup: int = WARMUP_FRAMES,
