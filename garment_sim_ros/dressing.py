@@ -182,9 +182,12 @@ class DressedCharacter:
         for k in range(steps + hold_frames):
             current = blended(min(1.0, (k + 1) / steps))
             for solver, sel in zip(solvers, selections):
-                solver.advance(FrameInput(t, t + frame_s, root_position, root_yaw, root_position, root_yaw,
-                                          still, still, 0.0, 0.0, previous[0][sel], previous[1][sel],
-                                          current[0][sel], current[1][sel]))
+                solver.advance(FrameInput(
+                    t0=t, t1=t + frame_s, root_position0=root_position, root_yaw0=root_yaw,
+                    root_position1=root_position, root_yaw1=root_yaw, root_velocity=still, root_acceleration=still,
+                    yaw_rate=0.0, yaw_acceleration=0.0, frame_positions0=previous[0][sel],
+                    frame_rotations0=previous[1][sel], frame_positions1=current[0][sel],
+                    frame_rotations1=current[1][sel]))
             previous = current
             t += frame_s
         for solver in solvers:
@@ -201,10 +204,8 @@ class DressedCharacter:
         reports = []
         for solver in self.solvers:
             sel = self._rows[id(solver)]
-            frame = FrameInput(previous_time, time_s, start_motion.position, start_motion.yaw,
-                               motion.position, motion.yaw, start_motion.velocity, start_motion.acceleration,
-                               start_motion.yaw_rate, start_motion.yaw_acceleration,
-                               p0[sel], q0[sel], p1[sel], q1[sel])
+            frame = FrameInput.between(t0=previous_time, motion0=start_motion, poses0=(p0[sel], q0[sel]),
+                                       t1=time_s, motion1=motion, poses1=(p1[sel], q1[sel]))
             reports.append(solver.advance(frame))
         # The guard re-fitted a garment that ran away (cloth.solver): its rest shape, moved onto the
         # new pose, may cross the limbs; put it on again from the rest pose instead, quickly.

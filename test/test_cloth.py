@@ -21,8 +21,10 @@ def still_frame(t0, t1, root0=(0, 0, 0), root1=None, yaw0=0.0, yaw1=None, v0=(0,
     fp1 = np.tile(np.asarray(root1, float), (frames, 1))
     fq0 = np.tile(yaw_quat(yaw0), (frames, 1))  # the carrying segment turns with the root
     fq1 = np.tile(yaw_quat(yaw1), (frames, 1))
-    return FrameInput(t0, t1, np.asarray(root0, float), yaw0, np.asarray(root1, float), yaw1,
-                      np.asarray(v0, float), np.asarray(a0, float), yaw_rate, yaw_acc, fp0, fq0, fp1, fq1)
+    return FrameInput(t0=t0, t1=t1, root_position0=np.asarray(root0, float), root_yaw0=yaw0,
+                      root_position1=np.asarray(root1, float), root_yaw1=yaw1, root_velocity=np.asarray(v0, float),
+                      root_acceleration=np.asarray(a0, float), yaw_rate=yaw_rate, yaw_acceleration=yaw_acc,
+                      frame_positions0=fp0, frame_rotations0=fq0, frame_positions1=fp1, frame_rotations1=fq1)
 
 
 def strip_mesh(width=4, length=8, spacing=0.05, pinned_top=True):

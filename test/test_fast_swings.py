@@ -186,8 +186,11 @@ def test_motion_constraints_are_off_by_default_and_hold_every_free_point_within_
         worst, t = 0.0, 0.0
         for k in range(30):
             push = np.array([40.0 * math.sin(0.5 * k), 25.0, 0.0])  # m/s^2
-            solver.advance(FrameInput(t, t + FRAME_S, np.zeros(3), 0.0, np.zeros(3), 0.0, np.zeros(3), push, 6.0, 0.0,
-                                      *frames(), *frames()))
+            (p0, q0), (p1, q1) = frames(), frames()
+            solver.advance(FrameInput(
+                t0=t, t1=t + FRAME_S, root_position0=np.zeros(3), root_yaw0=0.0, root_position1=np.zeros(3),
+                root_yaw1=0.0, root_velocity=np.zeros(3), root_acceleration=push, yaw_rate=6.0, yaw_acceleration=0.0,
+                frame_positions0=p0, frame_rotations0=q0, frame_positions1=p1, frame_rotations1=q1))
             t += FRAME_S
             worst = max(worst, float(np.linalg.norm(solver.state.positions - model.rest_positions, axis=1)[free].max()))
         return worst

@@ -77,8 +77,10 @@ def run_motion(solver: GarmentSolver, motion: dict, frames: int = FRAMES):
         position1 = position + velocity * dt + 0.5 * acceleration * dt * dt
         yaw1 = yaw + yaw_rate * dt
         reports.append(solver.advance(FrameInput(
-            t, t + dt, position, yaw, position1, yaw1, velocity, acceleration, yaw_rate, 0.0,
-            position[None], yaw_quat(yaw)[None], position1[None], yaw_quat(yaw1)[None])))
+            t0=t, t1=t + dt, root_position0=position, root_yaw0=yaw, root_position1=position1, root_yaw1=yaw1,
+            root_velocity=velocity, root_acceleration=acceleration, yaw_rate=yaw_rate, yaw_acceleration=0.0,
+            frame_positions0=position[None], frame_rotations0=yaw_quat(yaw)[None],
+            frame_positions1=position1[None], frame_rotations1=yaw_quat(yaw1)[None])))
         speed = max(speed, float(np.abs(solver.state.velocities).max()))
         velocity = velocity + acceleration * dt
         position, yaw, t = position1, yaw1, t + dt

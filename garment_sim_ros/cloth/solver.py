@@ -61,28 +61,46 @@ class ClothState:
     time: float = 0.0  # body time of the last frame, s
     lag: float = 0.0  # how far the simulated time is behind the body's time, s
 
+    def copy(self) -> ClothState:
+        """An independent copy (the guard keeps one as the last good state)."""
+        return ClothState(self.positions.copy(), self.velocities.copy(), self.time, self.lag)
 
-@dataclass(frozen=True)
+
+@dataclass(frozen=True, kw_only=True)
 class FrameInput:
-    """The character between two frames (Warp's ``Control``); world frame, SI units.
+    """The character between two frames (Warp's ``Control``); world frame, SI units. Keyword-only:
+    fourteen fields of like types are too easy to swap by position; ``between`` builds it from the
+    two ends' (root motion, frame poses) pairs.
 
     ``frame_positions*``/``frame_rotations*`` are the poses of ``GarmentSolver.frames``, in that order.
     """
 
-    t0: float
-    t1: float
-    root_position0: np.ndarray
-    root_yaw0: float
-    root_position1: np.ndarray
-    root_yaw1: float
-    root_velocity: np.ndarray  # v0 at t0, m/s
-    root_acceleration: np.ndarray  # a0, m/s^2
+    t0: float  # s
+    t1: float  # s
+    root_position0: np.ndarray  # (3,) m, at t0
+    root_yaw0: float  # rad, at t0
+    root_position1: np.ndarray  # (3,) m, at t1
+    root_yaw1: float  # rad, at t1
+    root_velocity: np.ndarray  # (3,) v0 at t0, m/s
+    root_acceleration: np.ndarray  # (3,) a0, m/s^2
     yaw_rate: float  # rad/s at t0
     yaw_acceleration: float  # rad/s^2
-    frame_positions0: np.ndarray
-    frame_rotations0: np.ndarray
-    frame_positions1: np.ndarray
-    frame_rotations1: np.ndarray
+    frame_positions0: np.ndarray  # (F, 3) m, at t0
+    frame_rotations0: np.ndarray  # (F, 4) xyzw, at t0
+    frame_positions1: np.ndarray  # (F, 3) m, at t1
+    frame_rotations1: np.ndarray  # (F, 4) xyzw, at t1
+
+    @classmethod
+    def between(cls, *, t0: float, motion0, poses0: tuple[np.ndarray, np.ndarray], t1: float, motion1,
+                poses1: tuple[np.ndarray, np.ndarray]) -> FrameInput:
+        """From the root motions at both ends (``body.pose_buffer.RootMotion``: position, yaw, and at
+        the start velocity, acceleration, yaw rate and yaw acceleration: the memo's v0, a0) and the
+        frames' (positions, rotations) at both ends."""
+        return cls(t0=t0, t1=t1, root_position0=motion0.position, root_yaw0=motion0.yaw,
+                   root_position1=motion1.position, root_yaw1=motion1.yaw, root_velocity=motion0.velocity,
+                   root_acceleration=motion0.acceleration, yaw_rate=motion0.yaw_rate,
+                   yaw_acceleration=motion0.yaw_acceleration, frame_positions0=poses0[0],
+                   frame_rotations0=poses0[1], frame_positions1=poses1[0], frame_rotations1=poses1[1])
 
 
 @dataclass
@@ -303,7 +321,7 @@ class GarmentSolver:
                                               frame.frame_positions1, frame.frame_rotations1)
         count, h = substep_plan(dt, params, volume_travel(self.volumes, *poses0, *poses1) if poses0 else 0.0)
         report = FrameReport(substeps=count, substep_s=h, simulated_s=count * h)
-        last_good = (state.positions.copy(), state.velocities.copy())  # for the guard at the end
+        last_good = state.copy()  # for the guard at the end
         state.lag += dt - count * h
         report.lag_s = state.lag
         if not _finite_frame(frame):  # a bad estimate upstream: no step at all (collision would launder NaN)
@@ -446,7 +464,7 @@ class GarmentSolver:
     # (soft springs without length correction reach about 3 under strong root accelerations).
     RUNAWAY_STRETCH = 10.0
 
-    def _guard(self, report: FrameReport, last_good: tuple[np.ndarray, np.ndarray], frame: FrameInput) -> None:
+    def _guard(self, report: FrameReport, last_good: ClothState, frame: FrameInput) -> None:
         """Never keep a non-finite or runaway garment: non-finite values restore the last good state
         (at rest); a spring beyond ``RUNAWAY_STRETCH`` times its rest length re-fits the garment (its
         rest shape moved to where its attached points now are, those on the new pose). ``report.recovery`` names what was done."""
@@ -462,7 +480,7 @@ class GarmentSolver:
             x[attached] = targets
             report.recovery = "refitted"
         if not np.isfinite(x).all():  # the step, or the new pose the re-fit used, was not finite
-            x[...] = last_good[0]
+            x[...] = last_good.positions
             report.recovery = "restored"
         v[...] = 0.0
         self._measure_stretch(report)

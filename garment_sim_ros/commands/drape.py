@@ -132,8 +132,10 @@ class DrapeScene:
         t1 = (self.frame + 1) * FRAME_S
         (p0, q0), (p1, q1) = self._sphere_pose(t0), self._sphere_pose(t1)
         still = np.zeros(3)
-        report = self.solver.advance(FrameInput(t0, t1, still, 0.0, still, 0.0, still, still, 0.0, 0.0,
-                                                p0, q0, p1, q1))
+        report = self.solver.advance(FrameInput(
+            t0=t0, t1=t1, root_position0=still, root_yaw0=0.0, root_position1=still, root_yaw1=0.0,
+            root_velocity=still, root_acceleration=still, yaw_rate=0.0, yaw_acceleration=0.0,
+            frame_positions0=p0, frame_rotations0=q0, frame_positions1=p1, frame_rotations1=q1))
         self.frame += 1
         self.time = t1
         return report
