@@ -259,7 +259,7 @@ def test_cached_contacts_are_handled_by_handle_contacts_only():
     np.testing.assert_array_equal(c.cache[:, 0], [0, -1])  # point 0 hit volume a; point 1 hit nothing
     # both points are pushed inside a volume; only point 0 has a cached contact
     x = np.array([[0.0, 0.05, 0.0], [1.0, 0.05, 0.0]])
-    c.handle_contacts(x, v, np.ones(2), h=H)
+    c.handle_contacts(None, x, v, np.ones(2), h=H)
     np.testing.assert_allclose(x[0], [0, 0.1, 0], atol=1e-12)
     np.testing.assert_array_equal(x[1], [1.0, 0.05, 0.0])
     assert c.static_hits == 2

@@ -95,7 +95,7 @@ def _run_substeps(seed, n_points, parallel, use_broad_phase, substeps=4, h=0.01)
         x_start = x.copy()
         x = x + steps[k] * inv_mass[:, None]
         v = (x - x_start) / h
-        collider.handle_contacts(x, v, inv_mass, h, x_start)
+        collider.handle_contacts(x_start, x, v, inv_mass, h)
         collider.handle_all(x_start, x, v, inv_mass, h)
     return x, v, collider.cache.copy(), collider.static_hits, collider.dynamic_hits
 

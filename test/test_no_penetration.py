@@ -272,7 +272,7 @@ def test_a_contact_pulled_past_a_limbs_axis_goes_back_out_where_it_came_in(swept
     collider.cache[0] = 0  # in contact with the limb
     x_start = np.array([[0.06, 0.0, 0.0]])
     x = np.array([[-0.02, 0.001, 0.0]])
-    collider.handle_contacts(x, np.zeros((1, 3)), np.ones(1), 0.005, x_start if swept else None)
+    collider.handle_contacts(x_start if swept else None, x, np.zeros((1, 3)), np.ones(1), 0.005)
     assert np.sign(x[0, 0]) == side and np.hypot(x[0, 0], x[0, 1]) == pytest.approx(0.05)
 
 

@@ -382,7 +382,7 @@ class GarmentSolver:
                     report.correction_s += clock() - tic
                 if iteration == 0 and collider is not None:
                     tic = clock()
-                    collider.handle_contacts(x, v, const.inv_mass, h, self._x_start)
+                    collider.handle_contacts(self._x_start, x, v, const.inv_mass, h)
                     report.collision_s += clock() - tic
             if constrained:
                 limit_distance(x, skinned0, skinned1, f1, params.max_distance, const.inv_mass)
@@ -405,20 +405,9 @@ class GarmentSolver:
         return report
 
     def _collide(self, x: np.ndarray, v: np.ndarray, h: float) -> None:
-        """Full collision handling of a substep's end (memo §3 step 5, and beyond it the edges)."""
-        collider, inv_mass = self.collider, self.constants.inv_mass
-        collider.handle_all(self._x_start, x, v, inv_mass, h)
-        # Triangles a bone passes through go back to their side of it, edges a limb cuts into go back
-        # out (both beyond the memo), then the points that put into a volume are handled again: the
-        # cached contacts, then -- once more, as an edge moved off one volume can meet its neighbour --
-        # the edges and every point against every volume, and the bones last, so that a pinch ends
-        # with the cloth on its side of the bone (collision.crossing). Nothing moved: nothing to redo.
-        crossed = collider.handle_axes(self._x_start, x, v, inv_mass, self._triangles, h)
-        if collider.handle_edges(self._x_start, x, inv_mass, self._edges, self._edge_rest) or crossed:
-            collider.handle_contacts(x, v, inv_mass, h, self._x_start)
-            collider.handle_edges(self._x_start, x, inv_mass, self._edges, self._edge_rest)
-            collider.handle_all(self._x_start, x, v, inv_mass, h)
-            collider.handle_axes(self._x_start, x, v, inv_mass, self._triangles, h)
+        """Full collision handling of a substep's end (``Collider.resolve_substep``)."""
+        self.collider.resolve_substep(self._x_start, x, v, self.constants.inv_mass, h, self._edges, self._edge_rest,
+                                      self._triangles)
 
     def _measure_stretch(self, report: FrameReport) -> None:
         """``self.stretches`` and ``report.max_stretch`` for the garment as it is now."""

@@ -123,10 +123,27 @@ class Collider:
                                self._displacement, self._chord)
 
     # ------------------------------------------------------------------ handling
-    def handle_contacts(self, x, v, inv_mass, h: float | None = None, x_start=None) -> None:
+    def resolve_substep(self, x_start, x, v, inv_mass, h: float, edges, edge_rest, triangles) -> None:
+        """Full collision handling of a substep's end (memo §3 step 5, and beyond it edges and bones),
+        with its retry policy: every point against every volume; then triangles a limb bone passes
+        through go back to their side of it and edges a limb cuts into go back out; if either moved
+        anything, the points that put into a volume are handled again -- the cached contacts, then,
+        as an edge moved off one volume can meet its neighbour, the edges and every point against
+        every volume once more, and the bones last, so that a pinch ends with the cloth on its side
+        of the bone (``collision.crossing``). Points (N, 3) m, velocities m/s, ``h`` s; ``edges``
+        (E, 2) with ``edge_rest`` (E,) m; ``triangles`` (T, 3)."""
+        self.handle_all(x_start, x, v, inv_mass, h)
+        crossed = self.handle_axes(x_start, x, v, inv_mass, triangles, h)
+        if self.handle_edges(x_start, x, inv_mass, edges, edge_rest) or crossed:
+            self.handle_contacts(x_start, x, v, inv_mass, h)
+            self.handle_edges(x_start, x, inv_mass, edges, edge_rest)
+            self.handle_all(x_start, x, v, inv_mass, h)
+            self.handle_axes(x_start, x, v, inv_mass, triangles, h)
+
+    def handle_contacts(self, x_start, x, v, inv_mass, h: float | None = None) -> None:
         """Handling of the cached (in-contact) pairs at the substep-end poses (memo §3 step 4).
 
-        Static, or -- given the points' substep-start positions ``x_start`` -- the same adaptive
+        Static (``x_start`` None), or -- given the points' substep-start positions ``x_start`` -- the same adaptive
         static/dynamic handling as ``handle_all`` (without the slide), so that a point the length
         correction pulled deep into a thin limb goes back out on the side it came from.
         The surface velocity needs the substep length: ``h`` if given, else the one of the last
