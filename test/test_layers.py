@@ -25,7 +25,7 @@ PACKAGE = "garment_sim_ros"
 ROOT = Path(__file__).resolve().parents[1] / PACKAGE
 
 CORE = ("body", "cloth", "collision")
-SHARED = ("params", "transforms", "config_files")  # top-level modules the core may use
+SHARED = ("params", "transforms", "quat_kernels", "config_files")  # top-level modules the core may use
 ROS_FREE = CORE + ("runtime",)
 # ROS client libraries and interface packages; ``rosbags`` (pure Python, no ROS install) is not one of them
 ROS_PREFIXES = ("rclpy", "rcl_interfaces", "builtin_interfaces", "rosidl", "tf2_ros", "rosbag2_py", "ament_index")

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from .. import quat_kernels as quat
 from ..transforms import quat_rotate
 
 
@@ -93,19 +94,13 @@ def compose_tree(parents, local_positions, local_rotations, positions, rotations
             rotations[i] = local_rotations[i]
             continue
         qx, qy, qz, qw = rotations[p, 0], rotations[p, 1], rotations[p, 2], rotations[p, 3]
-        vx, vy, vz = local_positions[i, 0], local_positions[i, 1], local_positions[i, 2]
-        # v + 2 w (u x v) + 2 u x (u x v), u = (qx, qy, qz)
-        tx = 2.0 * (qy * vz - qz * vy)
-        ty = 2.0 * (qz * vx - qx * vz)
-        tz = 2.0 * (qx * vy - qy * vx)
-        positions[i, 0] = positions[p, 0] + vx + qw * tx + (qy * tz - qz * ty)
-        positions[i, 1] = positions[p, 1] + vy + qw * ty + (qz * tx - qx * tz)
-        positions[i, 2] = positions[p, 2] + vz + qw * tz + (qx * ty - qy * tx)
+        ox, oy, oz = quat.rotate(qx, qy, qz, qw, local_positions[i, 0], local_positions[i, 1], local_positions[i, 2])
+        positions[i, 0] = positions[p, 0] + ox
+        positions[i, 1] = positions[p, 1] + oy
+        positions[i, 2] = positions[p, 2] + oz
         bx, by, bz, bw = local_rotations[i, 0], local_rotations[i, 1], local_rotations[i, 2], local_rotations[i, 3]
-        rotations[i, 0] = qw * bx + qx * bw + qy * bz - qz * by
-        rotations[i, 1] = qw * by - qx * bz + qy * bw + qz * bx
-        rotations[i, 2] = qw * bz + qx * by - qy * bx + qz * bw
-        rotations[i, 3] = qw * bw - qx * bx - qy * by - qz * bz
+        rotations[i, 0], rotations[i, 1], rotations[i, 2], rotations[i, 3] = quat.multiply(qx, qy, qz, qw,
+                                                                                          bx, by, bz, bw)
 
 
 def offsets_pose(pose: SkeletonPose) -> SkeletonPose:

@@ -11,6 +11,8 @@ import math
 import numpy as np
 from numba import njit
 
+from .. import quat_kernels as quat
+
 
 @njit(cache=True)
 def accumulate_forces(x, v, mass, springs, rest, stiffness, damping, uniform_accel, omega_z, alpha_z,
@@ -27,7 +29,7 @@ def accumulate_forces(x, v, mass, springs, rest, stiffness, damping, uniform_acc
     n = x.shape[0]
     for i in range(n):
         m = mass[i]
-        rx, ry, rz = x[i, 0], x[i, 1], x[i, 2]
+        rx, ry = x[i, 0], x[i, 1]  # the rotation is about z: r_z plays no part
         vx, vy, vz = v[i, 0], v[i, 1], v[i, 2]
         # omega = (0, 0, w): omega x r = (-w ry, w rx, 0); omega x (omega x r) = (-w^2 rx, -w^2 ry, 0)
         w = omega_z
@@ -208,15 +210,6 @@ def vertex_normals(x, triangles, normals):
 
 
 @njit(cache=True)
-def _rotate(qx, qy, qz, qw, vx, vy, vz):
-    tx = 2.0 * (qy * vz - qz * vy)
-    ty = 2.0 * (qz * vx - qx * vz)
-    tz = 2.0 * (qx * vy - qy * vx)
-    return (vx + qw * tx + (qy * tz - qz * ty), vy + qw * ty + (qz * tx - qx * tz),
-            vz + qw * tz + (qx * ty - qy * tx))
-
-
-@njit(cache=True)
 def poses_in_root_frame(root_position, root_yaw, frame_positions, frame_rotations, index, offset_positions,
                         offset_rotations, out_positions, out_rotations):
     """For each k: the pose ``frame[index[k]] * offset[k]`` (world) expressed in the root frame
@@ -226,20 +219,15 @@ def poses_in_root_frame(root_position, root_yaw, frame_positions, frame_rotation
     for k in range(index.shape[0]):
         f = index[k]
         qx, qy, qz, qw = frame_rotations[f, 0], frame_rotations[f, 1], frame_rotations[f, 2], frame_rotations[f, 3]
-        ox, oy, oz = _rotate(qx, qy, qz, qw, offset_positions[k, 0], offset_positions[k, 1], offset_positions[k, 2])
+        ox, oy, oz = quat.rotate(qx, qy, qz, qw, offset_positions[k, 0], offset_positions[k, 1], offset_positions[k, 2])
         wx = frame_positions[f, 0] + ox - root_position[0]
         wy = frame_positions[f, 1] + oy - root_position[1]
         wz = frame_positions[f, 2] + oz - root_position[2]
-        out_positions[k, 0], out_positions[k, 1], out_positions[k, 2] = _rotate(0.0, 0.0, -s, c, wx, wy, wz)
+        out_positions[k, 0], out_positions[k, 1], out_positions[k, 2] = quat.rotate(0.0, 0.0, -s, c, wx, wy, wz)
         if offset_rotations.shape[0] == 0:
             continue
         bx, by, bz, bw = offset_rotations[k, 0], offset_rotations[k, 1], offset_rotations[k, 2], offset_rotations[k, 3]
         # world = q * offset, then (0, 0, -s, c) * world
-        rx = qw * bx + qx * bw + qy * bz - qz * by
-        ry = qw * by - qx * bz + qy * bw + qz * bx
-        rz = qw * bz + qx * by - qy * bx + qz * bw
-        rw = qw * bw - qx * bx - qy * by - qz * bz
-        out_rotations[k, 0] = c * rx + s * ry
-        out_rotations[k, 1] = c * ry - s * rx
-        out_rotations[k, 2] = c * rz - s * rw
-        out_rotations[k, 3] = c * rw + s * rz
+        rx, ry, rz, rw = quat.multiply(qx, qy, qz, qw, bx, by, bz, bw)
+        (out_rotations[k, 0], out_rotations[k, 1], out_rotations[k, 2],
+         out_rotations[k, 3]) = quat.multiply(0.0, 0.0, -s, c, rx, ry, rz, rw)

@@ -32,6 +32,7 @@ import math
 
 from numba import njit, prange
 
+from .. import quat_kernels as quat
 from .volumes import CAPSULE, ELLIPSOID, SPHERE
 
 NO_HIT = 0
@@ -531,33 +532,9 @@ def interpolate_poses(pos_a, quat_a, pos_b, quat_b, fraction, out_pos, out_rot):
     for v in range(pos_a.shape[0]):
         for k in range(3):
             out_pos[v, k] = pos_a[v, k] + fraction * (pos_b[v, k] - pos_a[v, k])
-        dot = 0.0
-        for k in range(4):
-            dot += quat_a[v, k] * quat_b[v, k]
-        sign = 1.0
-        if dot < 0.0:
-            sign, dot = -1.0, -dot
-        if dot > 1.0 - 1e-12:
-            wa, wb = 1.0 - fraction, fraction
-        else:
-            theta = math.acos(min(1.0, dot))
-            wa = math.sin((1.0 - fraction) * theta) / math.sin(theta)
-            wb = math.sin(fraction * theta) / math.sin(theta)
-        qx = wa * quat_a[v, 0] + sign * wb * quat_b[v, 0]
-        qy = wa * quat_a[v, 1] + sign * wb * quat_b[v, 1]
-        qz = wa * quat_a[v, 2] + sign * wb * quat_b[v, 2]
-        qw = wa * quat_a[v, 3] + sign * wb * quat_b[v, 3]
-        n = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
-        qx, qy, qz, qw = qx / n, qy / n, qz / n, qw / n
-        out_rot[v, 0, 0] = 1.0 - 2.0 * (qy * qy + qz * qz)
-        out_rot[v, 0, 1] = 2.0 * (qx * qy - qz * qw)
-        out_rot[v, 0, 2] = 2.0 * (qx * qz + qy * qw)
-        out_rot[v, 1, 0] = 2.0 * (qx * qy + qz * qw)
-        out_rot[v, 1, 1] = 1.0 - 2.0 * (qx * qx + qz * qz)
-        out_rot[v, 1, 2] = 2.0 * (qy * qz - qx * qw)
-        out_rot[v, 2, 0] = 2.0 * (qx * qz - qy * qw)
-        out_rot[v, 2, 1] = 2.0 * (qy * qz + qx * qw)
-        out_rot[v, 2, 2] = 1.0 - 2.0 * (qx * qx + qy * qy)
+        qx, qy, qz, qw = quat.slerp(quat_a[v, 0], quat_a[v, 1], quat_a[v, 2], quat_a[v, 3],
+                                    quat_b[v, 0], quat_b[v, 1], quat_b[v, 2], quat_b[v, 3], fraction)
+        quat.matrix_into(out_rot, v, qx, qy, qz, qw)
 
 
 # ----------------------------------------------------------------------------- drivers over points
