@@ -252,6 +252,23 @@ def quadric_entry(kind, radii, cuts, v, x0, y0, z0, x1, y1, z1):
 
 
 @kernel
+def _capsule_minimum(r_bottom, r_top, half_length, ox, oy, oz, dx, dy, dz, lo, hi, iterations):
+    """Golden-section search for the t in [lo, hi] where the capsule's signed distance at o + t d is
+    least (one minimum: the capsule is convex); the middle of the last bracket."""
+    g = 0.5 * (math.sqrt(5.0) - 1.0)
+    for _ in range(iterations):
+        m1 = hi - g * (hi - lo)
+        m2 = lo + g * (hi - lo)
+        f1 = capsule_sdf(r_bottom, r_top, half_length, ox + m1 * dx, oy + m1 * dy, oz + m1 * dz)[0]
+        f2 = capsule_sdf(r_bottom, r_top, half_length, ox + m2 * dx, oy + m2 * dy, oz + m2 * dz)[0]
+        if f1 < f2:
+            hi = m2
+        else:
+            lo = m1
+    return 0.5 * (lo + hi)
+
+
+@kernel
 def capsule_entry(radii, v, x0, y0, z0, x1, y1, z1):
     """First alpha in [0, 1] where the segment enters the tapered capsule; -1 if it does not.
 
@@ -276,18 +293,7 @@ def capsule_entry(radii, v, x0, y0, z0, x1, y1, z1):
         if t > length:
             return -1.0
     # grazing: minimise the distance over [t, length]
-    lo, hi = t, length
-    g = 0.5 * (math.sqrt(5.0) - 1.0)
-    for _ in range(_SEARCH_ITERATIONS):
-        m1 = hi - g * (hi - lo)
-        m2 = lo + g * (hi - lo)
-        f1 = capsule_sdf(rb, rt, hl, x0 + m1 * ux, y0 + m1 * uy, z0 + m1 * uz)[0]
-        f2 = capsule_sdf(rb, rt, hl, x0 + m2 * ux, y0 + m2 * uy, z0 + m2 * uz)[0]
-        if f1 < f2:
-            hi = m2
-        else:
-            lo = m1
-    t_min = 0.5 * (lo + hi)
+    t_min = _capsule_minimum(rb, rt, hl, x0, y0, z0, ux, uy, uz, t, length, _SEARCH_ITERATIONS)
     if capsule_sdf(rb, rt, hl, x0 + t_min * ux, y0 + t_min * uy, z0 + t_min * uz)[0] > 0.0:
         return -1.0
     lo, hi = t, t_min
@@ -753,18 +759,8 @@ def _deepest_on_segment(kind, radii, cuts, v, ax, ay, az, bx, by, bz):
     """
     dx, dy, dz = bx - ax, by - ay, bz - az
     if kind == CAPSULE:
-        lo, hi = 0.0, 1.0
-        g = 0.5 * (math.sqrt(5.0) - 1.0)
-        for _ in range(_SEARCH_ITERATIONS // 2):
-            m1 = hi - g * (hi - lo)
-            m2 = lo + g * (hi - lo)
-            f1 = capsule_sdf(radii[v, 0], radii[v, 1], radii[v, 2], ax + m1 * dx, ay + m1 * dy, az + m1 * dz)[0]
-            f2 = capsule_sdf(radii[v, 0], radii[v, 1], radii[v, 2], ax + m2 * dx, ay + m2 * dy, az + m2 * dz)[0]
-            if f1 < f2:
-                hi = m2
-            else:
-                lo = m1
-        t = 0.5 * (lo + hi)
+        t = _capsule_minimum(radii[v, 0], radii[v, 1], radii[v, 2], ax, ay, az, dx, dy, dz, 0.0, 1.0,
+                             _SEARCH_ITERATIONS // 2)
         depth = capsule_sdf(radii[v, 0], radii[v, 1], radii[v, 2], ax + t * dx, ay + t * dy, az + t * dz)[0]
         return t, depth < 0.0
     rx, ry, rz = radii[v, 0], radii[v, 1], radii[v, 2]
