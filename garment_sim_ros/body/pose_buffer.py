@@ -50,10 +50,10 @@ import numpy as np
 
 from ..transforms import IDENTITY_QUAT, compose, inverse, quat_slerp
 from .root import fit_root_kinematics, root_frame
+from .sample_series import SampleSeries
 from .skeleton import Skeleton, SkeletonPose, compose_tree
 
 _UNIT_SILENT = 1e-3  # |q| within this of 1 is rounding: normalised without being counted
-EXTRAPOLATION_SPAN_S = 0.01  # extrapolation takes its velocity over at least this span (see _Series.bracket)
 MAX_FRAME_SPEED = 12.0  # m/s, faster than any sprinter: a translation faster than this between samples jumped
 
 
@@ -101,111 +101,6 @@ class RootMotion:
     @property
     def dyaw(self) -> float:
         return self.yaw_rate * self.dt + 0.5 * self.yaw_acceleration * self.dt ** 2
-
-
-class _Series:
-    """A child's dynamic samples sorted by stamp, in preallocated arrays of twice the capacity:
-    appends are O(1) amortised (the live block is moved to the front when it reaches the end)."""
-
-    def __init__(self, capacity: int):
-        self.capacity = capacity
-        self._stamps = np.empty(2 * capacity)
-        self._translations = np.empty((2 * capacity, 3))
-        self._rotations = np.empty((2 * capacity, 4))
-        self._start = 0
-        self._end = 0
-
-    def __len__(self) -> int:
-        return self._end - self._start
-
-    @property
-    def stamps(self) -> np.ndarray:
-        return self._stamps[self._start:self._end]
-
-    @property
-    def translations(self) -> np.ndarray:
-        return self._translations[self._start:self._end]
-
-    @property
-    def rotations(self) -> np.ndarray:
-        return self._rotations[self._start:self._end]
-
-    def insert(self, stamp: float, translation: np.ndarray, rotation: np.ndarray) -> str:
-        """Store a sample; returns 'appended', 'inserted' (out of order) or 'replaced' (same stamp)."""
-        if self._end == len(self._stamps):
-            live = slice(self._start, self._end)
-            count = len(self)
-            for array in (self._stamps, self._translations, self._rotations):
-                array[:count] = array[live]
-            self._start, self._end = 0, count
-        stamps = self.stamps
-        if len(stamps) == 0 or stamp > stamps[-1]:
-            at, outcome = self._end, "appended"
-            self._end += 1
-        else:
-            offset = int(np.searchsorted(stamps, stamp))
-            at = self._start + offset
-            if stamps[offset] == stamp:
-                outcome = "replaced"
-            else:
-                for array in (self._stamps, self._translations, self._rotations):
-                    array[at + 1:self._end + 1] = array[at:self._end].copy()
-                self._end += 1
-                outcome = "inserted"
-        self._stamps[at] = stamp
-        self._translations[at] = translation
-        self._rotations[at] = rotation
-        return outcome
-
-    @property
-    def newest(self) -> float:
-        return float(self._stamps[self._end - 1])
-
-    def clear(self) -> None:
-        self._start = self._end = 0
-
-    def append(self, stamp: float, translation: np.ndarray, rotation: np.ndarray) -> None:
-        """Append one sample whose stamp is after the newest (the caller checks)."""
-        if self._end == len(self._stamps):  # as in ``insert``: the live block moves to the front,
-            count = min(len(self), self.capacity)  # without what ``trim`` would drop (a block can be long)
-            for array in (self._stamps, self._translations, self._rotations):
-                array[:count] = array[self._end - count:self._end]
-            self._start, self._end = 0, count
-        end = self._end
-        self._stamps[end] = stamp
-        self._translations[end] = translation
-        self._rotations[end] = rotation
-        self._end = end + 1
-
-    def trim(self, max_duration_s: float) -> None:
-        """Drop samples beyond the capacity or older than ``max_duration_s`` behind the newest (keeps two)."""
-        if self._stamps[self._start] >= self._stamps[self._end - 1] - max_duration_s and len(self) <= self.capacity:
-            return  # nothing to drop: no search (called once per appended block)
-        stamps = self.stamps
-        keep_from = max(len(stamps) - self.capacity, int(np.searchsorted(stamps, stamps[-1] - max_duration_s)))
-        self._start += max(0, min(keep_from, len(stamps) - 2))
-
-    def bracket(self, times: np.ndarray, max_extrapolation_s: float):
-        """The samples around each of ``times`` (K,) and the interpolation weight between them:
-        p0, p1 (K, 3), q0, q1 (K, 4), weight (K,) (0 before the oldest, > 1 when extrapolating).
-        Past the newest stamp the pair is the newest and the last sample at least
-        ``EXTRAPOLATION_SPAN_S`` before it: at 60 Hz the last pair, at 1 kHz not two stamps whose
-        microseconds of jitter would turn into metres per second."""
-        stamps, translations, rotations = self.stamps, self.translations, self.rotations
-        if len(stamps) == 1:
-            p, q = np.repeat(translations, len(times), axis=0), np.repeat(rotations, len(times), axis=0)
-            return p, p, q, q, np.zeros(len(times))
-        newest = len(stamps) - 1
-        clamped = np.minimum(times, stamps[-1] + max_extrapolation_s)
-        low = np.minimum(np.maximum(np.searchsorted(stamps, clamped, side="right") - 1, 0), newest - 1)
-        high = low + 1
-        beyond = clamped > stamps[-1]
-        if beyond.any():
-            base = int(np.searchsorted(stamps, stamps[-1] - EXTRAPOLATION_SPAN_S, side="right")) - 1
-            low = np.where(beyond, min(max(base, 0), newest - 1), low)
-            high = np.where(beyond, newest, high)
-        weight = np.maximum((clamped - stamps[low]) / (stamps[high] - stamps[low]), 0.0)
-        return translations[low], translations[high], rotations[low], rotations[high], weight
 
 
 def _as_vector(value, size: int) -> list[float] | None:
@@ -262,7 +157,7 @@ class PoseBuffer:
         self.adjusted: Counter[str] = Counter()
         self._parent: dict[str, str] = {}
         self._static: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-        self._dynamic: dict[str, _Series] = {}
+        self._dynamic: dict[str, SampleSeries] = {}
         self._unconfirmed: dict[str, tuple[float, list[float], list[float]]] = {}  # a jump's first sample, by child
 
     # ------------------------------------------------------------------ input
@@ -316,7 +211,7 @@ class PoseBuffer:
             return None
         series = self._dynamic.get(child)
         if series is None:
-            series = self._dynamic[child] = _Series(self.max_count)
+            series = self._dynamic[child] = SampleSeries(self.max_count)
         elif stamp_s < series.stamps[-1] - self.max_duration_s:
             return self._reject("too_old", parent, child, f"stamp {stamp_s} is more than max_duration_s "
                                 f"({self.max_duration_s} s) behind the newest, {series.stamps[-1]}")
@@ -386,7 +281,7 @@ class PoseBuffer:
                 refusals.append(refusal)
         return stored, refusals
 
-    def _held_as_jump(self, child: str, series: _Series, stamp_s: float, position: list[float],
+    def _held_as_jump(self, child: str, series: SampleSeries, stamp_s: float, position: list[float],
                       rotation: list[float]) -> bool:
         """Settle the child's unconfirmed jump with this sample (confirmed, or dropped as an outlier);
         True when this sample is itself a jump, held until the next one."""
