@@ -173,8 +173,13 @@ class DressedCharacter:
         start = time_s - (steps + hold_frames) * frame_s
         selections = [self._rows[id(solver)] for solver in solvers]
         fp, fq = blended(0.0)
+        running = [solver.params for solver in solvers]
         for solver, sel in zip(solvers, selections):
             solver.reset(root_position, root_yaw, fp[sel], fq[sel], start)
+            # No strain limiting while the pose is blended in: it pulls the cloth taut across an arm
+            # coming down onto it (CC 02_04: a forearm ended through the long skirt and the trousers);
+            # the hold lets the springs settle without it.
+            solver.set_params(solver.params.replace(strain_limit_iterations=0))
         still = np.zeros(3)
         # Blend, then hold the pose so the garments come to rest on it.
         t = start
@@ -190,7 +195,8 @@ class DressedCharacter:
                     frame_rotations1=current[1][sel]))
             previous = current
             t += frame_s
-        for solver in solvers:
+        for solver, params in zip(solvers, running):
+            solver.set_params(params)
             solver.state.time = time_s
             solver.state.lag = 0.0
 
