@@ -1,6 +1,6 @@
 # Two commands for a newcomer (see README):
 #   make demo   set up the venv (first time) and run the dressed, walking character
-#   make test   set up the venv (first time) and run the test suite
+#   make test   set up the venv (first time), run `ruff check .`, then the test suite
 #   make bench      every benchmark, the figures and their ratios (PEERS_VENV=... adds the peers)
 #   make evaluate   do the garments stay on real motion: every shared mocap clip (issue 11's table)
 PYTHON ?= python3.11
@@ -35,7 +35,9 @@ $(STAMP): requirements.txt setup.py package.xml tools/build_tf2_msgs.sh $(wildca
 demo: $(STAMP)
 	$(VENV)/bin/garment-sim demo --duration $(DURATION) $(if $(BVH),--bvh $(BVH),) $(if $(GARMENTS),--garments $(GARMENTS),)
 
+# Lint first (ruff.toml: pyflakes, pycodestyle, import order); a finding fails the target before pytest runs.
 test: $(STAMP)
+	$(VENV)/bin/ruff check .
 	$(PY) -m pytest -q test
 
 # Every benchmark, then the issue-15 figures against their targets with ratios to the roofline and, when

@@ -119,7 +119,8 @@ def measure(characters: int, joints: int, rate_hz: float, seconds: float) -> dic
     node = subprocess.Popen([sys.executable, "-m", "garment_sim_ros.ros.node", "--ros-args", "-p",
                              "frame_prefix:=c0/", "-p", "garments:=[one_piece]", "-p", "diagnostics_period:=1.0"],
                             cwd=REPO, env=env,
-                            stdout=subprocess.DEVNULL, stderr=None if os.environ.get("TF_BENCH_DEBUG") else subprocess.DEVNULL)
+                            stdout=subprocess.DEVNULL,
+                            stderr=None if os.environ.get("TF_BENCH_DEBUG") else subprocess.DEVNULL)
     total_s = WARM_UP_S + seconds
     publisher = subprocess.Popen([sys.executable, __file__, "publish", "--characters", str(characters), "--joints",
                                   str(joints), "--rate", str(rate_hz), "--seconds", str(total_s + 2.0)],
@@ -148,8 +149,8 @@ def measure(characters: int, joints: int, rate_hz: float, seconds: float) -> dic
         offered = json.loads(publisher.communicate(timeout=60)[0].strip().splitlines()[-1])
     if os.environ.get("TF_BENCH_DEBUG"):
         for t, w in windows:
-            print(round(t - start, 1), {k: w.get(k) for k in ("status", "fps", "tick_ms", "input_hz", "input_lag_p50_ms",
-                                                             "input_stored", "skeleton_age_s")}, file=sys.stderr)
+            keys = ("status", "fps", "tick_ms", "input_hz", "input_lag_p50_ms", "input_stored", "skeleton_age_s")
+            print(round(t - start, 1), {k: w.get(k) for k in keys}, file=sys.stderr)
     measured = [w for t, w in windows if t > start + WARM_UP_S + 1.0]  # whole windows after the warm-up
     stored = [int(w.get("input_stored", 0)) + int(w.get("input_other_character", 0)) for t, w in windows]
     times = [t for t, _ in windows]

@@ -84,7 +84,8 @@ def figures(rows: list[dict]) -> list[dict]:
         plain = _nearest_roofline(rows, drape["particles"])
         add(f"drape n = {DRAPE_N}", drape["ms_per_frame"], "ms/frame",
             f"stretch <= {DRAPE_STRETCH}, penetration <= 1 mm, on the sphere, >= {DRAPE_SPEEDUP:g}x newton VBD",
-            sane and vbd is not None and vbd >= DRAPE_SPEEDUP, _ratio(drape["ms_per_frame"], plain and plain["frame_ms"]),
+            sane and vbd is not None and vbd >= DRAPE_SPEEDUP,
+            _ratio(drape["ms_per_frame"], plain and plain["frame_ms"]),
             peers, note=f"stretch {drape['max_stretch']}, penetration {drape['max_penetration_m'] * 1e3:.2f} mm, "
                         f"top z {top}" + ("" if vbd is not None else "; newton VBD not measured in this run"))
     crowd = next((r for r in _of(rows, "crowd") if r.get("summary")), None)
@@ -103,6 +104,7 @@ def table(rows: list[dict]) -> str:
     for f in figures(rows):
         holds = {True: "yes", False: "no", None: "-"}[f["holds"]]
         peers = ", ".join(f"{k} {v}x" for k, v in f["peer_speedup"].items()) or "-"
+        ratio = f["ratio_to_roofline"] if f["ratio_to_roofline"] is not None else "-"
         lines.append(f"| {f['figure']} | {f['value']} | {f['unit']} | {f['target']} | {holds} | "
-                     f"{f['ratio_to_roofline'] if f['ratio_to_roofline'] is not None else '-'} | {peers} | {f['note']} |")
+                     f"{ratio} | {peers} | {f['note']} |")
     return "\n".join(lines)

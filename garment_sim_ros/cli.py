@@ -49,7 +49,8 @@ SUMMARIES = {
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="garment-sim", description="Real-time garment simulation on a moving character: demo, experiments, benchmarks.")
+        prog="garment-sim",
+        description="Real-time garment simulation on a moving character: demo, experiments, benchmarks.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMANDS:
         sub.add_parser(name, help=SUMMARIES[name], add_help=False)

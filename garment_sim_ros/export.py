@@ -157,7 +157,8 @@ def read_run(path: str | Path) -> Run:
     if version != FORMAT_VERSION:
         raise ValueError(f"{path}: export format {version}, this reader reads {FORMAT_VERSION}")
     times = _get(arrays, path, "times")
-    frames, joints, volumes = len(times), len(_get(arrays, path, "joint_names")), len(_get(arrays, path, "volume_names"))
+    frames = len(times)
+    joints, volumes = len(_get(arrays, path, "joint_names")), len(_get(arrays, path, "volume_names"))
     expected = {"times": (frames,), "joint_parents": (joints,), "joint_positions": (frames, joints, 3),
                 "joint_rotations": (frames, joints, 4), "volume_kinds": (volumes,), "volume_joints": (volumes,),
                 "volume_radii": (volumes, 3), "volume_cuts": (volumes, 2), "volume_positions": (frames, volumes, 3),

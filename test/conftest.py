@@ -15,7 +15,10 @@
 - Pass the context to everything: ``create_node(..., context=)``, executors, ``rclpy.spin_once(...)``'s
   executor. The context is shut down after the test; destroy your nodes in the test
   (or a ``try/finally``) so their entities leave the graph first.
-rclpy is imported only when a test asks for the fixture, so ROS-free tests do not load it.
+``graph``: a ``node_harness.Graph`` over ``ros_context`` (an executor spun until a condition holds),
+closed after the test.
+
+rclpy is imported only when a test asks for a fixture, so ROS-free tests do not load it.
 """
 
 from __future__ import annotations
@@ -50,3 +53,12 @@ def local_ros_context():
 def ros_context():
     with local_ros_context() as context:
         yield context
+
+
+@pytest.fixture
+def graph(ros_context):
+    from node_harness import Graph  # imports rclpy: only for the tests that ask for this fixture
+
+    g = Graph(ros_context)
+    yield g
+    g.close()

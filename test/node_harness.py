@@ -1,6 +1,6 @@
 """Test helpers for garment_sim_node in-process (shared by test_node, test_robustness, test_soak).
 
-- ``Graph`` / the ``graph`` fixture: a ``SingleThreadedExecutor`` over the test's nodes in the test's
+- ``Graph`` (the ``graph`` fixture of ``conftest.py``): a ``SingleThreadedExecutor`` over the test's nodes in the test's
   own rclpy context (``ros_context``), spun until a condition holds; destroys the nodes at the end.
 - ``SkeletonPublisher``: plays ``ProceduralCharacter(walk())`` on /tf at 60 Hz, frames named
   ``prefix + joint``; ``running`` switches it off and on, ``prefix`` can change mid-run.
@@ -14,7 +14,6 @@ from __future__ import annotations
 import time
 
 import numpy as np
-import pytest
 import rclpy
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
@@ -27,8 +26,8 @@ from visualization_msgs.msg import MarkerArray
 
 from garment_sim_ros.body.pose_buffer import PoseBuffer
 from garment_sim_ros.body.procedural import ProceduralCharacter, walk
-from garment_sim_ros.runtime.character_loop import Status
 from garment_sim_ros.ros.node import GarmentSimNode
+from garment_sim_ros.runtime.character_loop import Status
 
 CHARACTER = ProceduralCharacter(walk())
 
@@ -125,13 +124,6 @@ class Graph:
             self.executor.remove_node(node)
             node.destroy_node()
         self.executor.shutdown()
-
-
-@pytest.fixture
-def graph(ros_context):
-    g = Graph(ros_context)
-    yield g
-    g.close()
 
 
 def garment_node(graph, name="garment_sim_node", namespace=None, **overrides) -> GarmentSimNode:

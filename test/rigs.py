@@ -39,7 +39,12 @@ import numpy as np
 from garment_sim_ros.body.bvh import UNIT_SCALES
 from garment_sim_ros.body.skeleton import Skeleton, SkeletonPose, forward_kinematics
 from garment_sim_ros.transforms import (
-    IDENTITY_QUAT, quat_conjugate, quat_from_axis_angle, quat_from_matrix, quat_multiply, quat_rotate,
+    IDENTITY_QUAT,
+    quat_conjugate,
+    quat_from_axis_angle,
+    quat_from_matrix,
+    quat_multiply,
+    quat_rotate,
     quat_to_matrix,
 )
 

@@ -15,8 +15,7 @@ import numpy as np
 import pytest
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from node_harness import (CHARACTER, Probe, SkeletonPublisher, garment_node, graph,  # noqa: F401 (fixture)
-                          ros_time, running, transform)
+from node_harness import CHARACTER, Probe, SkeletonPublisher, garment_node, ros_time, transform
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.serialization import serialize_message
 from tf2_msgs.msg import TFMessage
@@ -40,11 +39,20 @@ def test_one_node_dresses_two_characters_each_in_its_own_namespace_on_its_own_pe
     probe = Probe(graph.context, "/crowd_node/markers")
     graph.add(probe.node)
     alice, bob = node.members
-    dressed = lambda: all(m.loop.status == Status.RUNNING and m.stats.total_frames >= 5 for m in node.members)
+
+    def dressed():
+        return all(m.loop.status == Status.RUNNING and m.stats.total_frames >= 5 for m in node.members)
+
     assert graph.spin_until(dressed, 30.0), [(m.prefix, m.loop.status, m.loop.detail) for m in node.members]
-    latest = lambda: {s.name: {kv.key: kv.value for kv in s.values} for s in probe.diagnostics}
+
+    def latest():
+        return {s.name: {kv.key: kv.value for kv in s.values} for s in probe.diagnostics}
+
     names = [f"garment_sim: /crowd_node: {member.prefix.strip('/')}" for member in node.members]
-    reported = lambda: all(latest().get(name, {}).get("status") == Status.RUNNING for name in names)
+
+    def reported():
+        return all(latest().get(name, {}).get("status") == Status.RUNNING for name in names)
+
     assert graph.spin_until(lambda: len(probe.markers) >= 3 and reported(), 10.0), (len(probe.markers), latest())
 
     for member, prefix in ((alice, "alice/"), (bob, "bob/")):
@@ -136,7 +144,8 @@ def test_a_node_process_given_frame_prefixes_on_the_command_line_dresses_both_pl
     env, repo = os.environ.copy(), Path(__file__).parents[1]  # ros_context set the test's domain
     command = [sys.executable, "-m", "garment_sim_ros.ros.node", "--ros-args", "-p", "frame_prefixes:=[alice/, bob/]",
                "-p", "rate_hz:=20.0", "-p", "diagnostics_period:=0.5"]
-    processes = [subprocess.Popen(command, cwd=repo, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)]
+    processes = [subprocess.Popen(command, cwd=repo, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                  text=True)]
     for prefix in ("alice/", "bob/"):
         processes.append(subprocess.Popen([sys.executable, "-m", "garment_sim_ros.ros.skeleton_player", "--ros-args",
                                            "-p", f"frame_prefix:={prefix}", "-r", f"__node:={prefix[:-1]}_player"],

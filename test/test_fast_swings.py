@@ -19,9 +19,9 @@ from garment_sim_ros.body.pose_buffer import RootMotion, SampleStatus
 from garment_sim_ros.body.procedural import ProceduralCharacter, walk
 from garment_sim_ros.body.root import root_frame
 from garment_sim_ros.body.sources import procedural_source
-from garment_sim_ros.cloth.motion_constraints import SkinBinding, limit_distance
 from garment_sim_ros.cloth.garments import build_garment
 from garment_sim_ros.cloth.model import build_cloth_model
+from garment_sim_ros.cloth.motion_constraints import SkinBinding, limit_distance
 from garment_sim_ros.cloth.solver import FrameInput, GarmentSolver, substep_plan, volume_travel
 from garment_sim_ros.collision.volumes import ELLIPSOID, SPHERE, Volume, VolumeSet
 from garment_sim_ros.dressing import make_character
@@ -180,7 +180,10 @@ def test_motion_constraints_are_off_by_default_and_hold_every_free_point_within_
 
     def farthest(max_distance: float) -> float:
         solver = GarmentSolver(model, far_sphere, DEFAULT_PARAMS.replace(max_distance=max_distance), ("root",))
-        frames = lambda: (np.zeros((1, 3)), np.array([[0.0, 0.0, 0.0, 1.0]]))
+
+        def frames():
+            return np.zeros((1, 3)), np.array([[0.0, 0.0, 0.0, 1.0]])
+
         solver.reset(np.zeros(3), 0.0, *frames())
         free = solver.constants.inv_mass > 0.0
         worst, t = 0.0, 0.0

@@ -13,10 +13,14 @@ from garment_sim_ros import cli
 from garment_sim_ros.body.bvh import load_bvh
 from garment_sim_ros.body.canonical import canonical_pose
 from garment_sim_ros.body.fitting import (
-    BASIC_VOLUMES, DETAILED_VOLUMES, LEG_PER_STATURE, THIGH_MID_PLANE_GAP_PER_STATURE, fit_body,
+    BASIC_VOLUMES,
+    DETAILED_VOLUMES,
+    LEG_PER_STATURE,
+    THIGH_MID_PLANE_GAP_PER_STATURE,
+    fit_body,
 )
-from garment_sim_ros.body.overrides import BodyConfigError, load_body_overrides
 from garment_sim_ros.body.joint_map import REQUIRED_ROLES, auto_joint_map
+from garment_sim_ros.body.overrides import BodyConfigError, load_body_overrides
 from garment_sim_ros.body.procedural import WALKER_JOINT_MAP, ProceduralCharacter
 from garment_sim_ros.body.root import root_frame
 from garment_sim_ros.body.skeleton import SkeletonPose
@@ -304,8 +308,9 @@ def test_skeleton_command_text_and_errors(capsys, tmp_path):
 @pytest.mark.parametrize("height", [1.45, 2.05])
 def test_a_short_and_a_tall_character_both_get_garments_that_fit(height):
     """Garments are cut from the fitted body: every garment's rest shape clears the body's volumes
-    (no free point inside any; the strapless dress's carried neckline runs under the arms), its waistband or neckline sits close around the trunk, and it scales with
-    the character (waist girth proportional to height)."""
+    (no free point inside any; the strapless dress's carried neckline runs under the arms), its
+    waistband or neckline sits close around the trunk, and it scales with the character (waist
+    girth proportional to height)."""
     from garment_sim_ros.cloth.garments import GARMENT_NAMES, build_garment
     from garment_sim_ros.collision.collider import Collider
 

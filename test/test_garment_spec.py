@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from node_harness import SkeletonPublisher, garment_node, graph, running  # noqa: F401 (fixture)
+from node_harness import SkeletonPublisher, garment_node, running
 from rclpy.parameter import Parameter
 
 from garment_sim_ros.body.fitting import fit_body
@@ -24,8 +24,15 @@ from garment_sim_ros.cloth.garments import GARMENT_NAMES, build_garment
 from garment_sim_ros.cloth.materials import MATERIALS, material_overrides
 from garment_sim_ros.cloth.mesh_check import GarmentMeshError, boundary_loops
 from garment_sim_ros.cloth.model import build_cloth_model
-from garment_sim_ros.cloth.spec import (BUILTIN_SPECS, FIT_EASE_M, SpecError, build_mesh, load_spec,
-                                        parse_garment_list, resolve_garment)
+from garment_sim_ros.cloth.spec import (
+    BUILTIN_SPECS,
+    FIT_EASE_M,
+    SpecError,
+    build_mesh,
+    load_spec,
+    parse_garment_list,
+    resolve_garment,
+)
 from garment_sim_ros.collision.collider import Collider
 from garment_sim_ros.dressing import DressedCharacter
 from garment_sim_ros.params import DEFAULT_PARAMS, PARAMETER_TABLE, ParameterError
@@ -423,7 +430,7 @@ def test_the_example_cape_hangs_on_a_real_walk_without_sinking_into_the_body():
 
 
 # ----------------------------------------------------------------------------- the node
-def test_the_node_wears_a_spec_file_and_dresses_again_when_it_is_saved(graph, tmp_path):  # noqa: F811
+def test_the_node_wears_a_spec_file_and_dresses_again_when_it_is_saved(graph, tmp_path):
     shutil.copy(CAPE.with_suffix(".obj"), tmp_path / "cape.obj")
     spec = tmp_path / "cape.yaml"
     spec.write_text(CAPE.read_text())

@@ -9,7 +9,13 @@ import pytest
 
 from garment_sim_ros.body.bvh import load_bvh
 from garment_sim_ros.body.joint_map import (
-    REQUIRED_ROLES, ROLES, JointMapError, auto_joint_map, builtin_joint_map, classify_name, load_joint_map,
+    REQUIRED_ROLES,
+    ROLES,
+    JointMapError,
+    auto_joint_map,
+    builtin_joint_map,
+    classify_name,
+    load_joint_map,
 )
 from garment_sim_ros.body.procedural import WALKER_JOINT_MAP, ProceduralCharacter
 from garment_sim_ros.body.skeleton import Skeleton

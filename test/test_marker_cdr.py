@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from rclpy.serialization import deserialize_message, serialize_message
 from visualization_msgs.msg import Marker, MarkerArray
 
+from garment_sim_ros.ros.marker_objects import marker_array_message
 from garment_sim_ros.runtime.marker_cdr import (
     DELETE,
     SPHERE,
@@ -20,7 +21,6 @@ from garment_sim_ros.runtime.marker_cdr import (
     serialize_marker_array,
     serialize_marker_array_with_padding,
 )
-from garment_sim_ros.ros.marker_objects import marker_array_message
 
 
 def triangle_list(n_points: int, seed: int = 0, **fields) -> MarkerData:

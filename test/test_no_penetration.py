@@ -249,7 +249,8 @@ def test_the_garments_rest_shapes_clear_the_fitted_body(lift_m):
         model = build_cloth_model(build_garment(garment, body.measurements))
         collider = Collider(body.volumes, model.num_points)
         collider.begin_frame(*poses, *poses)
-        depths = collider.penetration_depths(transform_points(root_position, yaw_quat(root_yaw), model.rest_positions + [0.0, 0.0, lift_m]))
+        lifted = model.rest_positions + [0.0, 0.0, lift_m]
+        depths = collider.penetration_depths(transform_points(root_position, yaw_quat(root_yaw), lifted))
         free = np.setdiff1d(np.arange(model.num_points), model.attached)
         assert depths[free].max() == 0.0, f"{garment}: {depths[free].max() * 1e3:.1f} mm inside at rest"
 

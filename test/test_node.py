@@ -17,8 +17,7 @@ import pytest
 import rclpy
 import yaml
 from diagnostic_msgs.msg import DiagnosticStatus
-from node_harness import (CHARACTER, Probe, SkeletonPublisher, feed, garment_node, graph,  # noqa: F401 (fixture)
-                          ros_time, running, transform)
+from node_harness import CHARACTER, Probe, SkeletonPublisher, feed, garment_node, ros_time, running, transform
 from rcl_interfaces.msg import ParameterType
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
@@ -28,8 +27,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from garment_sim_ros.body.pose_buffer import PoseBuffer
 from garment_sim_ros.params import DEFAULT_PARAMS, PARAMETERS
-from garment_sim_ros.runtime.character_loop import BONE_CHECK_S, CharacterLoop, Status
 from garment_sim_ros.ros.node import GarmentSimNode, params_file_from_args
+from garment_sim_ros.runtime.character_loop import BONE_CHECK_S, CharacterLoop, Status
 from garment_sim_ros.runtime.params_file import ParamsFileError, node_parameters, read_node_parameters
 from garment_sim_ros.runtime.settings import ALL_PARAMETERS, NODE_PARAMETERS, check_value
 from garment_sim_ros.runtime.tf_input import ingest, seconds_to_stamp, stamp_seconds
@@ -77,7 +76,8 @@ def test_node_dresses_the_walking_character_and_publishes_its_garments(graph, tm
     values = {kv.key: kv.value for kv in status.values}
     for key in ("fps", "substeps", "lag_s", "integration_ms", "correction_ms", "collision_ms", "publish_ms",
                 "max_penetration_mm", "skeleton_age_s", "mass_points", "bones_through", "bones_through_frames",
-                "legs_off", "structural_stretch_p99", "structural_stretch_max", "shear_stretch_p99", "shear_stretch_max"):
+                "legs_off", "structural_stretch_p99", "structural_stretch_max", "shear_stretch_p99",
+                "shear_stretch_max"):
         assert key in values, key
     assert float(values["structural_stretch_max"]) >= float(values["structural_stretch_p99"]) >= 0.9
     assert float(values["max_penetration_mm"]) < 3.0

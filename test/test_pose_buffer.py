@@ -241,7 +241,10 @@ def test_root_motion_is_exact_for_constant_acceleration():
     add_hips(buffer)
     p0, v0, a0 = np.array([1.0, 2.0, 0.9]), np.array([1.5, -0.5, 0.2]), np.array([-2.0, 3.0, 1.0])
     yaw_rate, yaw_acceleration = 0.7, -1.5
-    trajectory = lambda t: (p0 + v0 * t + 0.5 * a0 * t * t, 0.2 + yaw_rate * t + 0.5 * yaw_acceleration * t * t)
+
+    def trajectory(t):
+        return p0 + v0 * t + 0.5 * a0 * t * t, 0.2 + yaw_rate * t + 0.5 * yaw_acceleration * t * t
+
     for k in range(121):
         position, yaw = trajectory(k / 120.0)
         buffer.add_transform(k / 120.0, "world", "pelvis", position, yaw_quat(yaw))

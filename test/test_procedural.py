@@ -6,7 +6,12 @@ import numpy as np
 import pytest
 
 from garment_sim_ros.body.procedural import (
-    WALKER_JOINT_MAP, Gait, ProceduralCharacter, fast_motion, run, walk,
+    WALKER_JOINT_MAP,
+    Gait,
+    ProceduralCharacter,
+    fast_motion,
+    run,
+    walk,
 )
 from garment_sim_ros.body.root import root_frame
 from garment_sim_ros.params import ParameterError

@@ -19,8 +19,7 @@ from garment_sim_ros.collision.volumes import ELLIPSOID, Volume, VolumeSet
 from garment_sim_ros.commands.simulate import simulate_frames
 from garment_sim_ros.dressing import make_character
 from garment_sim_ros.params import DEFAULT_PARAMS
-from garment_sim_ros.quality import (TARGETS, GarmentMeter, LimbTubes, report_scalars,
-                                     segments_through_triangles)
+from garment_sim_ros.quality import TARGETS, GarmentMeter, LimbTubes, report_scalars, segments_through_triangles
 from garment_sim_ros.transforms import IDENTITY_QUAT, quat_from_axis_angle, quat_normalize, quat_to_matrix
 
 MOCAP = Path(__file__).resolve().parent / "data"  # the shared real clips, copied unchanged

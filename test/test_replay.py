@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import local_ros_context
+
 from garment_sim_ros.body.sources import bvh_source
 from garment_sim_ros.commands.replay import MARKERS_TOPIC, Replay, configuration
 from garment_sim_ros.runtime.bag_io import TF_TYPE, BagError, BagWriter, read_transforms
@@ -73,7 +73,8 @@ def replays(tmp_path_factory):
     results = {}
     for storage in ("sqlite3", "mcap"):
         bag = folder / f"walk_{storage}"
-        results[storage] = bag, Replay(bag, values, folder / f"walk_{storage}.rrd", folder / f"walk_{storage}_markers").run()
+        replay = Replay(bag, values, folder / f"walk_{storage}.rrd", folder / f"walk_{storage}_markers")
+        results[storage] = bag, replay.run()
     return results
 
 
@@ -82,7 +83,8 @@ def test_a_recorded_bag_replays_to_the_same_garments_from_either_storage(replays
     from visualization_msgs.msg import Marker, MarkerArray
 
     (sqlite_bag, sqlite), (mcap_bag, mcap) = replays["sqlite3"], replays["mcap"]
-    assert any(p.suffix == ".db3" for p in sqlite_bag.iterdir()) and any(p.suffix == ".mcap" for p in mcap_bag.iterdir())
+    assert any(p.suffix == ".db3" for p in sqlite_bag.iterdir())
+    assert any(p.suffix == ".mcap" for p in mcap_bag.iterdir())
     # the player recorded at its rate for the whole time
     stamps = [t for t, _, _ in read_transforms(sqlite_bag)]
     assert (stamps[-1] - stamps[0]) * 1e-9 > RECORD_S - 0.3 and len(stamps) > 0.8 * RECORD_S * RATE_HZ
@@ -122,7 +124,8 @@ def test_the_rerun_recording_keeps_the_character_in_view_and_logs_figures_and_ev
     contents = {}
     for chunk in reader.stream(store=reader.blueprints()[0]):
         if chunk.entity_path.endswith("/ViewContents"):
-            contents[chunk.entity_path.rsplit("/", 1)[0]] = chunk.to_record_batch().column("ViewContents:query").to_pylist()[-1]
+            query = chunk.to_record_batch().column("ViewContents:query")
+            contents[chunk.entity_path.rsplit("/", 1)[0]] = query.to_pylist()[-1]
     ((view, (_, origin)),) = [(path, v) for path, v in views.items() if v[0] == "3D"]
     assert "/world/**" in contents[view]  # it shows the garments, the body, the skeleton
 

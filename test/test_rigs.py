@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from rigs import BINDS, CONVENTIONS, build_rig, write_bvh
 
 from garment_sim_ros.body.bvh import load_bvh
 from garment_sim_ros.body.canonical import canonical_pose
@@ -17,8 +18,6 @@ from garment_sim_ros.body.joint_map import auto_joint_map, builtin_joint_map, cl
 from garment_sim_ros.body.skeleton import forward_kinematics
 from garment_sim_ros.cloth.garments import GARMENT_NAMES, build_garment
 from garment_sim_ros.transforms import IDENTITY_QUAT
-
-from rigs import BINDS, CONVENTIONS, build_rig, write_bvh
 
 DATA = Path(__file__).parent / "data"  # the shared real clips, copied unchanged
 CASES = list(itertools.product(CONVENTIONS, BINDS, (False, True)))

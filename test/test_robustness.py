@@ -22,8 +22,7 @@ import psutil
 import pytest
 import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus
-from node_harness import (CHARACTER, Probe, SkeletonPublisher, feed, garment_node, graph,  # noqa: F401 (fixture)
-                          ros_time, running, transform)
+from node_harness import CHARACTER, Probe, SkeletonPublisher, feed, garment_node, ros_time, running, transform
 from rosgraph_msgs.msg import Clock
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import Marker
@@ -31,8 +30,8 @@ from visualization_msgs.msg import Marker
 from garment_sim_ros.body.pose_buffer import PoseBuffer, SampleStatus
 from garment_sim_ros.cloth.solver import GarmentSolver
 from garment_sim_ros.params import DEFAULT_PARAMS
-from garment_sim_ros.runtime.character_loop import BONE_CHECK_S, CLOCK_JUMP_BACK_S, CharacterLoop, Status
 from garment_sim_ros.ros.diagnostics import level_and_message
+from garment_sim_ros.runtime.character_loop import BONE_CHECK_S, CLOCK_JUMP_BACK_S, CharacterLoop, Status
 from garment_sim_ros.runtime.tf_input import seconds_to_stamp
 
 FRAME = 1.0 / 60.0

@@ -25,8 +25,8 @@ from node_harness import SkeletonPublisher
 from rclpy.parameter import Parameter
 from rclpy.time import Time
 
-from garment_sim_ros.runtime.character_loop import Status
 from garment_sim_ros.ros.node import GarmentSimNode
+from garment_sim_ros.runtime.character_loop import Status
 from garment_sim_ros.runtime.tf_input import seconds_to_stamp
 
 SOAK_SECONDS = float(os.environ.get("SOAK_SECONDS", "40"))

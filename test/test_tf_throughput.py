@@ -32,11 +32,17 @@ from visualization_msgs.msg import MarkerArray
 from garment_sim_ros.body.pose_buffer import PoseBuffer
 from garment_sim_ros.body.sources import bvh_source, procedural_source
 from garment_sim_ros.params import DEFAULT_PARAMS
+from garment_sim_ros.rerun_log import volume_ellipsoids
 from garment_sim_ros.runtime.character_loop import BONE_CHECK_S, CharacterLoop, Status
 from garment_sim_ros.runtime.marker_cdr import DELETEALL, SPHERE
-from garment_sim_ros.runtime.tf_input import (TFDecoder, TransformBatch, ingest, ingest_batch, seconds_to_stamp,
-                                          stamp_seconds)
-from garment_sim_ros.rerun_log import volume_ellipsoids
+from garment_sim_ros.runtime.tf_input import (
+    TFDecoder,
+    TransformBatch,
+    ingest,
+    ingest_batch,
+    seconds_to_stamp,
+    stamp_seconds,
+)
 from garment_sim_ros.transforms import compose, inverse, quat_rotate
 
 CLIP = Path(__file__).parent / "data" / "cc_cmu_07_01_walk.bvh"
@@ -82,8 +88,8 @@ def test_a_skeleton_at_120_hz_from_another_process_is_dressed_and_followed(ros_c
                              "diagnostics_period:=1.0"], cwd=repo, env=env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     player = subprocess.Popen([sys.executable, "-m", "garment_sim_ros.ros.skeleton_player", "--ros-args",
-                               *(["-p", f"bvh:={clip}"] if clip else []), "-p", f"rate_hz:={RATE_HZ}"], cwd=repo, env=env,
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                               *(["-p", f"bvh:={clip}"] if clip else []), "-p", f"rate_hz:={RATE_HZ}"],
+                              cwd=repo, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     listener = rclpy.create_node("listener", context=ros_context)
     markers: list[tuple[float, bytes]] = []  # (receive time, bytes)
     transforms: list[bytes] = []

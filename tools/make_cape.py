@@ -4,10 +4,11 @@
 A short cape: a closed collar ring round the neck base, then a panel from the shoulders down the back to
 the hips, covering the back third of the way round (open over 240 degrees at the front: the arms swing
 outside it). It is cut on the procedural character (1.75 m) in the canonical pose, in its root frame
-(x forward, y left, z up, m): a smooth flared outline, each vertex then moved out along its horizontal ray from the neck axis until it
-clears the body's fitted volumes (the 15-volume body) by ``CLEARANCE_M``, so the cape starts off the
-shoulders and arms. The spec fits the collar's top loop to the wearer's neck (scaled across to the neck,
-heights by the stature ratio) and hangs it on the chest. Run from the repository root:
+(x forward, y left, z up, m): a smooth flared outline, each vertex then moved out along its
+horizontal ray from the neck axis until it clears the body's fitted volumes (the 15-volume body)
+by ``CLEARANCE_M``, so the cape starts off the shoulders and arms. The spec fits the collar's top
+loop to the wearer's neck (scaled across to the neck, heights by the stature ratio) and hangs it
+on the chest. Run from the repository root:
 
     PYTHONPATH=$PWD python tools/make_cape.py        # writes config/garments/cape.obj and cape.yaml
 """

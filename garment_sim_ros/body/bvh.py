@@ -315,8 +315,8 @@ def resolve_units(units: str | float, extent: float, path: str) -> float:
         plausible = {name: scale for name, scale in UNIT_SCALES.items()
                      if _PLAUSIBLE_EXTENT_M[0] <= extent * scale <= _PLAUSIBLE_EXTENT_M[1]}
         if not plausible:
-            raise BvhError(f"{path}: the skeleton spans {extent:g} file units foot to hand, which is no human in any of "
-                           f"{', '.join(UNIT_SCALES)}; pass units= explicitly")
+            raise BvhError(f"{path}: the skeleton spans {extent:g} file units foot to hand, which is no human in "
+                           f"any of {', '.join(UNIT_SCALES)}; pass units= explicitly")
         return min(plausible.values(), key=lambda s: abs(math.log(extent * s / _TYPICAL_EXTENT_M)))
     if units in UNIT_SCALES:
         return UNIT_SCALES[units]

@@ -27,7 +27,13 @@ from typing import Mapping
 import numpy as np
 
 from ..transforms import (
-    IDENTITY_QUAT, quat_between, quat_conjugate, quat_from_axis_angle, quat_from_matrix, quat_multiply, quat_rotate,
+    IDENTITY_QUAT,
+    quat_between,
+    quat_conjugate,
+    quat_from_axis_angle,
+    quat_from_matrix,
+    quat_multiply,
+    quat_rotate,
 )
 from .skeleton import SkeletonPose, forward_kinematics
 

@@ -48,7 +48,8 @@ class BodyMeasurements:
             value = getattr(self, f.name)
             if not isinstance(value, (int, float)) or value != value:
                 raise ValueError(f"BodyMeasurements.{f.name} must be a finite number, got {value!r}")
-        positive = [f.name for f in fields(self) if f.name.endswith(("_rx", "_ry", "radius", "_y")) or f.name == "height"]
+        positive = [f.name for f in fields(self)
+                    if f.name.endswith(("_rx", "_ry", "radius", "_y")) or f.name == "height"]
         bad = [n for n in positive if getattr(self, n) <= 0.0]
         if bad:
             raise ValueError(f"BodyMeasurements: {', '.join(bad)} must be > 0")

@@ -200,7 +200,6 @@ def pants(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> Ga
     count = n_hip_levels * n_around
 
     crotch = hip_rings[-1]
-    front, back = crotch[0], crotch[half]
     crotch_z = hip_levels[-1][2]
     cx_crotch, rx_crotch = hip_levels[-1][0], hip_levels[-1][3]
     # Seam from back to front along x at the crotch height.

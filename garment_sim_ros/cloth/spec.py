@@ -192,7 +192,8 @@ def load_spec(path: str | Path) -> GarmentSpec:
                         f"got {source!r}")
     placement = data.get("placement", {"mode": "as_is"})
     if not isinstance(placement, Mapping):
-        raise SpecError(f"{where}: placement: expected a mapping with mode {' or '.join(PLACEMENTS)}, got {placement!r}")
+        raise SpecError(f"{where}: placement: expected a mapping with mode {' or '.join(PLACEMENTS)}, "
+                        f"got {placement!r}")
     unknown = sorted(set(placement) - {"mode", "anchor", "reference_height"})
     if unknown:
         raise SpecError(f"{where}: placement: unknown key(s) {', '.join(unknown)}; allowed: mode, anchor, "
@@ -409,7 +410,8 @@ def _attached(spec: GarmentSpec, vertices: np.ndarray, triangles: np.ndarray, so
         taken[ids] = True
         if attach.role in attachments:
             if shared.get(attach.role) != ((attach.blend_role, attach.blend_weight) if attach.blend_role else None):
-                raise SpecError(f"{spec.where}: attach[{k}]: role {attach.role} is attached twice with different blends")
+                raise SpecError(f"{spec.where}: attach[{k}]: role {attach.role} is attached twice "
+                                "with different blends")
             attachments[attach.role] = np.union1d(attachments[attach.role], ids)
         else:
             attachments[attach.role] = ids

@@ -115,8 +115,9 @@ class Crowd:
         """Tick every character until all are running (``RuntimeError`` if one is not within ``DRESS_TIMEOUT_S``)."""
         while not all(m.loop.status == Status.RUNNING for m in self.members):
             if self.time_s > DRESS_TIMEOUT_S:
+                undressed = [m for m in self.members if m.loop.status != Status.RUNNING]
                 raise RuntimeError("not dressed: " + "; ".join(f"{m.prefix} {m.loop.status}: {m.loop.detail}"
-                                                                for m in self.members if m.loop.status != Status.RUNNING))
+                                                                for m in undressed))
             self.tick(len(self.members))
 
     def separation(self, count: int) -> tuple[float, float]:
@@ -175,7 +176,8 @@ def time_crowd(count: int, processes: int, garments: list[str], resolution: floa
     others = min(g["others"] for g in groups)
     return {"characters": count, "processes": len(groups), "characters_per_process": max(sizes), "garments": garments,
             "mass_points": sum(g["mass_points"] for g in groups), "input_ms": _ms(series["input"]),
-            "step_ms": _ms(series["step"]), "solver_ms": _ms(series["solver"]), "publish_ms": _ms(series["publish"]), "tick_ms": tick_ms,
+            "step_ms": _ms(series["step"]), "solver_ms": _ms(series["solver"]), "publish_ms": _ms(series["publish"]),
+            "tick_ms": tick_ms,
             "tick_p95_ms": _ms(series["tick"], 0.95), "per_character_ms": round(tick_ms / max(sizes), 3),
             "fps": round(1e3 / tick_ms, 1), "max_penetration_m": max(g["max_penetration_m"] for g in groups),
             "garment_to_own_root_max_m": round(max(g["own"] for g in groups), 4),
@@ -212,8 +214,8 @@ def run(args: argparse.Namespace) -> int:
     if not args.json:
         print(f"{', '.join(garments)} per character, node defaults at {RATE_HZ:g} Hz; {args.processes} process(es), "
               f"{os.cpu_count()} cores, load {load_average()}")
-        print(f"{'chars':>5} {'points':>7} {'input':>7} {'step':>7} {'solver':>7} {'publish':>7} {'tick':>7} {'p95':>7} "
-              f"{'per ch.':>7} {'fps':>6} {'own m':>6} {'other m':>7}")
+        print(f"{'chars':>5} {'points':>7} {'input':>7} {'step':>7} {'solver':>7} {'publish':>7} {'tick':>7} "
+              f"{'p95':>7} {'per ch.':>7} {'fps':>6} {'own m':>6} {'other m':>7}")
     rows = []
     for count in counts:
         progress(f"crowd: {count} character(s) in {', '.join(garments)}, {args.processes} process(es) ...")
@@ -223,8 +225,9 @@ def run(args: argparse.Namespace) -> int:
             print(json.dumps(row), flush=True)
         else:
             others = row["garment_to_other_root_min_m"]
-            print(f"{count:>5} {row['mass_points']:>7} {row['input_ms']:>7.2f} {row['step_ms']:>7.2f} {row['solver_ms']:>7.2f} "
-                  f"{row['publish_ms']:>7.2f} {row['tick_ms']:>7.2f} {row['tick_p95_ms']:>7.2f} "
+            print(f"{count:>5} {row['mass_points']:>7} {row['input_ms']:>7.2f} {row['step_ms']:>7.2f} "
+                  f"{row['solver_ms']:>7.2f} {row['publish_ms']:>7.2f} {row['tick_ms']:>7.2f} "
+                  f"{row['tick_p95_ms']:>7.2f} "
                   f"{row['per_character_ms']:>7.2f} {row['fps']:>6.1f} {row['garment_to_own_root_max_m']:>6.3f} "
                   f"{'-' if others is None else f'{others:.2f}':>7}", flush=True)
     result = summary(rows)
@@ -250,4 +253,5 @@ def summary(rows: list[dict]) -> dict:
             "budget_ms": round(budget_ms, 3), "processes": rows[0]["processes"], "threads": rows[0]["threads"],
             "cores": os.cpu_count(),
             "load_average": load_average(),
-            "tick_ms_by_characters": {str(row["characters"]): row["tick_ms"] for row in sorted(rows, key=lambda r: r["characters"])}}
+            "tick_ms_by_characters": {str(row["characters"]): row["tick_ms"]
+                                      for row in sorted(rows, key=lambda r: r["characters"])}}

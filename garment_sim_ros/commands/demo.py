@@ -57,8 +57,8 @@ def run(args) -> int:
                        "rerun_sink": "save", "rerun_path": str(args.rrd), "rerun_every_n": args.rerun_every_n}
     windows: list[dict[str, float]] = []
     with node_and_player(node_parameters, player_parameters) as (executor, node):
-        _progress(f"demo: {', '.join(garments)} on {'the clip ' + args.bvh if args.bvh else 'a procedural ' + args.gait}; "
-                  f"dressing...")
+        wearer = "the clip " + args.bvh if args.bvh else "a procedural " + args.gait
+        _progress(f"demo: {', '.join(garments)} on {wearer}; dressing...")
         start = time.monotonic()
         running_since = None
         seen = None
@@ -70,14 +70,16 @@ def run(args) -> int:
                     running_since = now
                     _progress(f"demo: dressed in {now - start:.1f} s, walking for {args.duration:g} s")
                 elif now - start > 60.0:
-                    raise RuntimeError(f"the character was not dressed within 60 s: {node.loop.status} {node.loop.detail}")
+                    raise RuntimeError("the character was not dressed within 60 s: "
+                                       f"{node.loop.status} {node.loop.detail}")
                 continue
             if node.last_diagnostics is not seen and node.last_diagnostics:
                 seen = node.last_diagnostics
                 figures = {k: float(v) for k, v in seen.items() if _is_number(v)}
                 windows.append(figures)
                 _progress(f"demo: t={now - running_since:5.1f} s  fps {figures.get('fps', 0):5.1f}  "
-                          f"frame {figures.get('tick_ms', 0):6.2f} ms  penetration {figures.get('max_penetration_mm', 0):.3f} mm")
+                          f"frame {figures.get('tick_ms', 0):6.2f} ms  "
+                          f"penetration {figures.get('max_penetration_mm', 0):.3f} mm")
             if now - running_since >= args.duration:
                 break
         summary = _summary(node, windows, args.rrd)

@@ -98,8 +98,8 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
     ``targets`` (``quality.Targets.judge``), ``passed`` and ``wall_s``.
     ``after_dressing(character)`` is called once the garments are on (a test moves the cloth there)."""
     from ..body.sources import bvh_source
-    from ..params import preset
     from ..dressing import make_character
+    from ..params import preset
     from .simulate import simulate_frames
 
     tic = time.perf_counter()
@@ -126,7 +126,8 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
                           report.shear_stretch_p99, report.shear_stretch_max)
     worst = stretch.max(axis=0)
     row = {
-        "clip": Path(run.clip).stem, "garment": character.garment_names[0], "speed": run.speed, "fps": run.fps, "frames": frames,
+        "clip": Path(run.clip).stem, "garment": character.garment_names[0], "speed": run.speed, "fps": run.fps,
+        "frames": frames,
         "bones_frames": int(np.count_nonzero(bones)), "bones_max": int(bones.max()),
         "limb_tubes": len(character.solvers[0].model.limb_tubes),  # trouser legs: 2 for pants
         "legs_off_frames": int(np.count_nonzero(legs_off)),
@@ -187,7 +188,8 @@ def _verdict(row: dict) -> str:
 
 
 HEADER = (f"{'clip':<40} {'garment':<11} {'speed':>5} {'fps':>4} {'frames':>6}  {'bones frm/max':>13}  "
-          f"{'legs off':>8}  {'>1mm %':>6} {'max mm':>7}  {'struct p99/max':>14}  {'shear p99/max':>13}  {'guard':>5}  result")
+          f"{'legs off':>8}  {'>1mm %':>6} {'max mm':>7}  {'struct p99/max':>14}  {'shear p99/max':>13}  "
+          f"{'guard':>5}  result")
 
 
 def format_row(row: dict) -> str:
@@ -214,8 +216,9 @@ def run(args) -> int:
     start = time.perf_counter()
 
     def on_row(k: int, row: dict) -> None:
-        progress(f"evaluate: [{k + 1}/{len(runs)}] {row['clip']} {row['garment']} {row['speed']:g}x {row['fps']:g} fps: "
-                 f"{_verdict(row)} ({row['wall_s']:.1f} s; {time.perf_counter() - start:.0f} s so far)")
+        progress(f"evaluate: [{k + 1}/{len(runs)}] {row['clip']} {row['garment']} {row['speed']:g}x "
+                 f"{row['fps']:g} fps: {_verdict(row)} "
+                 f"({row['wall_s']:.1f} s; {time.perf_counter() - start:.0f} s so far)")
         print(json.dumps(row) if args.json else format_row(row), flush=True)
 
     rows = evaluate_all(runs, args.jobs, on_row)

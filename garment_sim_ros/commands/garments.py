@@ -16,7 +16,8 @@ HELP = ("List the built-in garments and the garment specs found in the search pa
 
 def add_arguments(parser) -> None:
     parser.add_argument("--resolution", type=float, default=1.0,
-                        help=f"vertex density factor of the built-ins, 0.25..{MAX_RESOLUTION:g} (1 = about the memo's sizes)")
+                        help=f"vertex density factor of the built-ins, 0.25..{MAX_RESOLUTION:g} "
+                             "(1 = about the memo's sizes)")
     parser.add_argument("--garment-path", default="", metavar="DIR[:DIR...]",
                         help="folders searched for garment specs before config/garments/")
     parser.add_argument("--json", action="store_true", help="one JSON object per garment")
@@ -49,7 +50,8 @@ def run(args) -> int:
         for row in rows:
             print(json.dumps(row))
         return 0
-    print(f"{'garment':<12} {'mass points':>11} {'edges':>6} {'springs':>8} {'triangles':>9} {'layer':>5}  carried by; source")
+    print(f"{'garment':<12} {'mass points':>11} {'edges':>6} {'springs':>8} {'triangles':>9} {'layer':>5}  "
+          "carried by; source")
     for r in rows:
         print(f"{r['name']:<12} {r['mass_points']:>11} {r['edges']:>6} {r['springs']:>8} {r['triangles']:>9} "
               f"{r['layer']:>5}  {', '.join(r['carried_by'])}; {r['source']}")

@@ -28,7 +28,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="vertex counts (default: %(default)s)")
     parser.add_argument("--repeats", type=int, default=15, help="timed publishes per path and size (default: 15)")
     parser.add_argument("--domain-id", type=int, default=None,
-                        help="ROS domain id (default: $ROS_DOMAIN_ID, else 100 + pid %% 101); discovery stays on localhost")
+                        help="ROS domain id (default: $ROS_DOMAIN_ID, else 100 + pid %% 101); "
+                             "discovery stays on localhost")
 
 
 def _domain_id(requested: int | None) -> int:
@@ -52,8 +53,8 @@ def _median_ms(samples: list[float]) -> float:
 
 
 def _measure(publisher, n_vertices: int, repeats: int) -> dict:
-    from garment_sim_ros.runtime.marker_cdr import TRIANGLE_LIST, MarkerData, serialize_marker_array
     from garment_sim_ros.ros.marker_objects import marker_array_message
+    from garment_sim_ros.runtime.marker_cdr import TRIANGLE_LIST, MarkerData, serialize_marker_array
 
     rng = np.random.default_rng(n_vertices)
     vertices = rng.normal(size=(n_vertices, 3))

@@ -216,5 +216,6 @@ def run(args) -> int:
         print("loop: " + ", ".join(f"{k} {n}" for k, n in summary["loop_counts"].items()))
     print(f"Rerun recording: {summary['rrd']}  (open it with: .venv/bin/rerun {summary['rrd']})")
     if summary["markers_bag"]:
-        print(f"markers: {summary['marker_messages']} MarkerArray messages on {MARKERS_TOPIC} in {summary['markers_bag']}")
+        print(f"markers: {summary['marker_messages']} MarkerArray messages on {MARKERS_TOPIC} "
+              f"in {summary['markers_bag']}")
     return 0

@@ -104,8 +104,9 @@ def run(args) -> int:
     quality_frames = {"bones_through_frames": 0, "legs_off_frames": 0, "guard_firings": 0}
     totals = []
     if not args.json:
-        print(f"{source.name}: {', '.join(f'{s.model.name} ({s.model.num_points} points)' for s in character.solvers)}, "
-              f"{len(character.body.volumes)} volumes, {args.fps:g} fps, {frames} frames, preset {args.preset}")
+        worn = ", ".join(f"{s.model.name} ({s.model.num_points} points)" for s in character.solvers)
+        print(f"{source.name}: {worn}, {len(character.body.volumes)} volumes, {args.fps:g} fps, {frames} frames, "
+              f"preset {args.preset}")
         for note in character.notes:
             print(f"dressing: {note}")
         if source.dropped_reference_frame:
@@ -151,7 +152,8 @@ def run(args) -> int:
                       f"{row['stretch_p99']:>6.3f} {penetration * 1e3:>10.3f} {bones:>5} {legs_off:>8} "
                       f"{row['lag_s']:>6.3f}")
         tic = time.perf_counter()
-    summary = {"garments": character.garment_names, "notes": character.notes, "frames": frames, "median_frame_ms": float(np.median(totals) * 1e3) if totals else 0.0,
+    summary = {"garments": character.garment_names, "notes": character.notes, "frames": frames,
+               "median_frame_ms": float(np.median(totals) * 1e3) if totals else 0.0,
                "max_penetration_m": worst_penetration, **quality_frames}
     if recorder is not None:
         summary["export"] = str(recorder.save(args.export))

@@ -10,12 +10,13 @@ import numpy as np
 from ..body.bvh import UNIT_SCALES, BvhError, Clip, load_bvh
 from ..body.canonical import canonical_pose
 from ..body.fitting import Body, fit_body
-from ..body.overrides import BodyConfigError, load_body_overrides
 from ..body.joint_map import JointMapError, auto_joint_map, load_joint_map
+from ..body.overrides import BodyConfigError, load_body_overrides
 from ..collision.volumes import KIND_NAMES
 
 HELP = ("Read a BVH clip (converted to REP-103 z-up metres) and print the detected joint map, the body "
-        "volumes fitted to its skeleton in the canonical standing pose, the measurements estimated and clip info (frames, fps, duration, mean horizontal pelvis speed).")
+        "volumes fitted to its skeleton in the canonical standing pose, the measurements estimated and clip info "
+        "(frames, fps, duration, mean horizontal pelvis speed).")
 
 _KIND_LABELS = {code: label for label, code in KIND_NAMES.items()}
 
@@ -97,7 +98,8 @@ def run(args) -> int:
             joint_map = load_joint_map(args.joint_map, clip.skeleton)
         else:
             joint_map = auto_joint_map(clip.skeleton, first.positions)
-        body = fit_body(canonical_pose(first, joint_map), joint_map, detailed=args.detailed, overrides=load_body_overrides(args.body_config))
+        body = fit_body(canonical_pose(first, joint_map), joint_map, detailed=args.detailed,
+                        overrides=load_body_overrides(args.body_config))
         info = summary(clip, body)
     except (BvhError, JointMapError, BodyConfigError, FileNotFoundError, ValueError) as err:
         print(f"garment-sim skeleton: {err}", file=sys.stderr)

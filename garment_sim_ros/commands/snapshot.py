@@ -63,8 +63,8 @@ def parse_outfits(text: str) -> list[list[str]]:
 def dressed_at(source, garments: list[str], time_s: float, fps: float, resolution: float,
                decimate_to: int | None = None):
     """Simulate ``garments`` on ``source`` from t = 0 to ``time_s``; returns (character, pose at time_s)."""
-    from ..params import preset
     from ..dressing import make_character
+    from ..params import preset
     from .simulate import simulate_frames
 
     character = make_character(source.rest_pose, source.joint_map, garments, preset("si"), resolution,
@@ -98,7 +98,8 @@ def snapshot(out: Path, outfits: list[list[str]] | None, time_s: float, view: st
         body = fit_body(source.rest_pose, source.joint_map, detailed=True)
         panels.append(render_character(pose, body.volumes, source.joint_map, view=view, width=width, height=height,
                                        volume_alpha=0.55, skeleton=True))
-        labels.append(f"{clip}: {len(body.volumes)} body volumes, " + ("canonical pose" if canonical else f"t = {time_s:g} s"))
+        labels.append(f"{clip}: {len(body.volumes)} body volumes, "
+                      + ("canonical pose" if canonical else f"t = {time_s:g} s"))
         path = out / f"{'canonical' if canonical else 'volumes'}_{clip}.png"
     else:
         for garments in outfits:

@@ -40,8 +40,11 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
-from rclpy.exceptions import (InvalidParameterTypeException, InvalidParameterValueException,
-                              ParameterNotDeclaredException)
+from rclpy.exceptions import (
+    InvalidParameterTypeException,
+    InvalidParameterValueException,
+    ParameterNotDeclaredException,
+)
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -55,13 +58,19 @@ from ..rerun_log import RerunLogger
 from ..runtime.character_loop import FrameResult, Throttle
 from ..runtime.crowd import Member, character_namespace, character_prefixes, crowd_markers, make_members, route_tf
 from ..runtime.marker_cdr import serialize_marker_array
+from ..runtime.settings import (
+    ALL_PARAMETERS,
+    PARAMETER_ROWS,
+    SOLVER_PARAMETER_NAMES,
+    check_garments,
+    garment_folders,
+    is_read_only,
+)
+from ..runtime.tf_input import TFDecoder, ingest
 from .diagnostics import crowd_statuses
 from .params_watch import ParamsFileWatch
 from .ros_parameters import descriptor, parameter_type, params_file_from_args, plain, ros_value
-from ..runtime.settings import (ALL_PARAMETERS, PARAMETER_ROWS, SOLVER_PARAMETER_NAMES, check_garments, garment_folders,
-                                is_read_only)
 from .spinning import spin_until_shutdown
-from ..runtime.tf_input import TFDecoder, ingest
 
 NODE_NAME = "garment_sim_node"
 # /tf: reliable and volatile as tf2's listeners, so every publisher that works with tf2 matches. Keep
@@ -300,7 +309,8 @@ class GarmentSimNode(Node):
         errors, refusals, lags = route_tf(self._tf_decoder, self.members, messages, now_s)
         self.input_counts["undecodable"] += len(errors)
         if errors:
-            self.log_throttled("warning", "tf_undecodable", f"a /tf message could not be decoded (counted): {errors[0]}")
+            self.log_throttled("warning", "tf_undecodable",
+                               f"a /tf message could not be decoded (counted): {errors[0]}")
         for lag_s in lags:  # receive time - stamp, per message
             for member in self.members:
                 member.stats.record_input(lag_s)
@@ -310,11 +320,13 @@ class GarmentSimNode(Node):
 
     def _on_tf_static(self, message: TFMessage) -> None:
         self._log_refusals([refusal for member in self.members
-                            if (refusal := member.count_input(ingest(member.buffer, message, member.prefix, static=True)))])
+                            if (refusal := member.count_input(ingest(member.buffer, message, member.prefix,
+                                                                     static=True)))])
 
     def _log_refusals(self, refusals: list[str]) -> None:
         if refusals:
-            self.log_throttled("warning", "tf_refused", f"refused /tf input (counted in diagnostics), e.g. {refusals[0]}")
+            self.log_throttled("warning", "tf_refused",
+                               f"refused /tf input (counted in diagnostics), e.g. {refusals[0]}")
 
     # ------------------------------------------------------------------------------ the frame
     def _on_frame_timer(self) -> None:

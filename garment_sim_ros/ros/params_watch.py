@@ -18,8 +18,8 @@ from rclpy.parameter import Parameter
 
 from ..params import ParameterError
 from ..runtime.params_file import FileWatch, ParamsFileError, read_node_parameters
-from .ros_parameters import plain, ros_value
 from ..runtime.settings import PARAMETER_ROWS, is_read_only
+from .ros_parameters import plain, ros_value
 
 if TYPE_CHECKING:
     from .node import GarmentSimNode

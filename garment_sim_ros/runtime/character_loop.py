@@ -6,8 +6,9 @@ module decides what happens:
 1. No character yet: wait for a complete skeleton under the fixed frame within the frame prefix
    (the same tree on two consecutive frames, every frame sampled), map it (``auto_joint_map`` on
    the names without the prefix, or ``joint_map_file``), stand it up (``canonical_pose``: the bones
-   seen on /tf, checked to be the same a moment earlier, in the canonical standing pose), fit the body (detailed volumes when a one-piece is worn), build the
-   ``DressedCharacter`` and dress it at ``T``. A skeleton that cannot be mapped is logged with the
+   seen on /tf, checked to be the same a moment earlier, in the canonical standing pose), fit the
+   body (detailed volumes when a one-piece is worn), build the ``DressedCharacter`` and dress it
+   at ``T``. A skeleton that cannot be mapped is logged with the
    missing roles and retried only when the tree changes; the loop keeps waiting.
 2. Running: sample the skeleton and root motion at ``T`` and step every garment from the last
    frame. Stamps are the truth: the buffer extrapolates at most ``max_extrapolation`` past its
@@ -60,10 +61,10 @@ from typing import Sequence
 
 import numpy as np
 
-from ..body.overrides import load_body_overrides
-from ..body.joint_map import auto_joint_map, load_joint_map
-from ..body.pose_buffer import MAX_FRAME_SPEED, PoseBuffer, SampleStatus
 from ..body.canonical import canonical_pose, local_transforms
+from ..body.joint_map import auto_joint_map, load_joint_map
+from ..body.overrides import load_body_overrides
+from ..body.pose_buffer import MAX_FRAME_SPEED, PoseBuffer, SampleStatus
 from ..body.skeleton import Skeleton, SkeletonPose
 from ..cloth.solver import FrameReport
 from ..cloth.spec import resolve_garment
@@ -170,7 +171,8 @@ class CharacterLoop:
         if self.character is not None:
             self.character.set_params(params)
 
-    def set_garments(self, garments: Sequence[str], resolution: float, garment_path: Sequence[str] | None = None) -> None:
+    def set_garments(self, garments: Sequence[str], resolution: float,
+                     garment_path: Sequence[str] | None = None) -> None:
         """Wear other garments (or the same at another resolution): re-dressed at the next frame."""
         self.garments = list(garments)
         self.resolution = float(resolution)

@@ -101,7 +101,8 @@ def make_members(prefixes: Sequence[str], values: dict[str, Any], params: Solver
         name = prefix.strip("/")
         events = on_event
         if crowd and on_event is not None:
-            events = lambda level, kind, message, name=name: on_event(level, kind, f"{name}: {message}")
+            def events(level, kind, message, name=name):
+                on_event(level, kind, f"{name}: {message}")
         loop = CharacterLoop(buffer, params, values["garments"], values["resolution"], frame_prefix=prefix,
                              root_frame=values["root_frame"] if not crowd else "",
                              joint_map_file=values["joint_map_file"], body_file=values["body_file"],

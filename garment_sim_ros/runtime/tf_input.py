@@ -4,9 +4,10 @@ CDR bytes with ``TFDecoder``; the node takes /tf as bytes, ``ingest`` serves /tf
 One character per frame prefix: a transform belongs to the character when its child frame starts
 with the prefix (every transform when the prefix is empty); others are another character's and
 are skipped without complaint. ``TFDecoder`` routes every transform of a message to its character
-among several prefixes in one pass (a crowd in one node: ``runtime.crowd``). Frame names lose a leading '/' (tf2 does the same). What the
-buffer refuses (NaN, zero quaternions, cycles, far too old or future stamps...) is counted there
-(``PoseBuffer.rejected``) and the first reason is kept for a throttled log line.
+among several prefixes in one pass (a crowd in one node: ``runtime.crowd``). Frame names lose a
+leading '/' (tf2 does the same). What the buffer refuses (NaN, zero quaternions, cycles, far too
+old or future stamps...) is counted there (``PoseBuffer.rejected``) and the first reason is kept
+for a throttled log line.
 """
 
 from __future__ import annotations
