@@ -27,27 +27,26 @@ body's volumes on the rest pose is moved out before anything is simulated, and s
 
 from __future__ import annotations
 
-from functools import cached_property
 import dataclasses
+from functools import cached_property
 from typing import Sequence
 
 import numpy as np
 
+from .body.canonical import local_transforms
 from .body.fitting import fit_body
 from .body.overrides import BodyOverrides
 from .body.pose_buffer import RootMotion, SampleStatus
 from .body.root import root_frame
-from .body.skeleton import SkeletonPose
+from .body.skeleton import SkeletonPose, forward_kinematics
 from .cloth.garments import GarmentMesh
 from .cloth.mesh_check import GarmentMeshError
 from .cloth.model import build_cloth_model
+from .cloth.solver import FrameInput, FrameReport, GarmentSolver
 from .cloth.spec import GarmentSpec, build_mesh, resolve_garment
 from .collision.collider import Collider
-from .cloth.solver import FrameInput, FrameReport, GarmentSolver
 from .params import SolverParams
 from .quality import GarmentMeter, free_point_depth
-from .body.canonical import local_transforms
-from .body.skeleton import forward_kinematics
 from .transforms import compose, inverse, quat_slerp, yaw_quat
 
 

@@ -9,7 +9,8 @@ bad value and what is allowed.
 Presets: ``PRESETS["si"]`` (defaults, SI units) and ``PRESETS["memo"]``, the parameter set
 of the memo's experiments (§7: mass 20, gravity 0.5, spring 10000, damping 100, air 20,
 limit 1 %, friction 0.2, 6 iterations, 2 correction iterations, 0.04 s time step; neither
-the strain limiting after collision nor the tethers, both beyond the memo). The memo's "0.04 s time step" is read as the *frame* time, split into 6 substeps (the reading
+the strain limiting after collision nor the tethers, both beyond the memo). The memo's "0.04 s
+time step" is read as the *frame* time, split into 6 substeps (the reading
 that is stable with explicit Euler; a 0.04 s substep with 6 per frame would simulate 0.24 s
 per frame, slower than the 31 fps it reports).
 """
@@ -46,7 +47,8 @@ class Param:
             return value
         if expected is tuple:
             if not isinstance(value, (list, tuple)) or len(value) != len(self.default):
-                raise ParameterError(f"{self.name}: got {value!r}; allowed: a list of {len(self.default)} numbers ({self.unit})")
+                raise ParameterError(f"{self.name}: got {value!r}; allowed: a list of {len(self.default)} numbers "
+                                     f"({self.unit})")
             return tuple(self._check_number(v, float) for v in value)
         return self._check_number(value, expected)
 

@@ -136,8 +136,9 @@ def test_an_out_of_range_measurement_is_estimated_and_named():
 
 
 def test_skeleton_command_says_what_was_estimated(capsys):
-    from garment_sim_ros import cli
     import json
+
+    from garment_sim_ros import cli
 
     assert cli.main(["skeleton", str(DATA / "cc_cmu_07_01_walk.bvh"), "--json"]) == 0
     info = json.loads(capsys.readouterr().out)

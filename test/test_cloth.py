@@ -244,7 +244,10 @@ def test_spinning_root_flares_the_skirt():
         spin.advance(still_frame(t, t + 1 / 60, yaw0=6.0 * t, yaw1=6.0 * (t + 1 / 60), yaw_rate=6.0))
         t += 1 / 60
     hem = model.rings["hem"][0]
-    radius = lambda s: np.hypot(s.state.positions[hem, 0], s.state.positions[hem, 1]).mean()
+
+    def radius(solver):
+        return np.hypot(solver.state.positions[hem, 0], solver.state.positions[hem, 1]).mean()
+
     assert radius(spin) > radius(still) + 0.02  # centrifugal force lifts the hem outwards
     no_spin = GarmentSolver(model, None, DEFAULT_PARAMS.replace(angular_inertia_scale=0.0))
     t = 0.0

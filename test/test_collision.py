@@ -10,8 +10,14 @@ import pytest
 from garment_sim_ros.collision.collider import Collider
 from garment_sim_ros.collision.volumes import CAPSULE, ELLIPSOID, SPHERE, Volume, VolumeSet
 from garment_sim_ros.params import DEFAULT_PARAMS
-from garment_sim_ros.transforms import (IDENTITY_QUAT, quat_conjugate, quat_from_axis_angle, quat_rotate,
-                                        quat_slerp, quat_to_matrix)
+from garment_sim_ros.transforms import (
+    IDENTITY_QUAT,
+    quat_conjugate,
+    quat_from_axis_angle,
+    quat_rotate,
+    quat_slerp,
+    quat_to_matrix,
+)
 
 H = 0.01
 

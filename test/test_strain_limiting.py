@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_cloth import still_frame, strip_mesh
 
 from garment_sim_ros.body.sources import bvh_source
 from garment_sim_ros.cloth import kernels
@@ -16,7 +17,6 @@ from garment_sim_ros.cloth.solver import GarmentSolver
 from garment_sim_ros.commands.simulate import simulate_frames
 from garment_sim_ros.dressing import make_character
 from garment_sim_ros.params import DEFAULT_PARAMS
-from test_cloth import still_frame, strip_mesh
 
 CLIP = Path(__file__).resolve().parent / "data" / "xia_old_13_000.bvh"  # the shortest real clip
 SPACING = 0.05  # m, ``strip_mesh``'s grid

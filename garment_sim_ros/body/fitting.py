@@ -1,7 +1,8 @@
 """Body volumes and measurements fitted to a skeleton's own bone lengths (memo §6.1).
 
 ``fit_body(rest_pose, joint_map)`` encloses the body, in its canonical standing pose
-(``body.canonical.canonical_pose``: legs straight down, spine up, arms in an A-pose), in the memo's 10 volumes (pelvis, torso,
+(``body.canonical.canonical_pose``: legs straight down, spine up, arms in an A-pose), in the memo's
+10 volumes (pelvis, torso,
 chest, head, upper and lower legs, upper arms), or 15 with ``detailed=True`` (plus neck,
 forearms, feet: the one-piece dress), and derives the ``BodyMeasurements`` garments are cut
 from, so a tall and a short skeleton both get garments that fit.
@@ -321,8 +322,9 @@ def _fit_volumes(fit: _Fit, detailed: bool) -> tuple[list[Volume], dict[str, flo
             if f"{s}_foot" in fit.map:
                 volumes.append(_foot(fit, s))
     spine_z = float(fit.local(fit.world("spine"))[2]) if "spine" in fit.map else math.inf
-    levels = {"stature": stature, "hip_joint_z": hip_joint_z, "leg_x": leg_x, "leg_y": leg_y, "spine_z": spine_z, "thigh": float(np.mean(thigh)),
-              "shin": float(np.mean(shin)), "shoulder_z": shoulder_z, "shoulder_y": shoulder_y}
+    levels = {"stature": stature, "hip_joint_z": hip_joint_z, "leg_x": leg_x, "leg_y": leg_y, "spine_z": spine_z,
+              "thigh": float(np.mean(thigh)), "shin": float(np.mean(shin)), "shoulder_z": shoulder_z,
+              "shoulder_y": shoulder_y}
     return volumes, levels, plausible.estimated
 
 
@@ -379,7 +381,8 @@ def _measure(fit: _Fit, volumes: VolumeSet, levels: dict[str, float]) -> BodyMea
     thighs = [by_name[f"{s}_upper_leg"] for s in ("left", "right")]
     shins = [by_name[f"{s}_lower_leg"] for s in ("left", "right")]
     # Bone volumes are centred at mid-bone: the knee is at +thigh/2 of the thigh's, the ankle at +shin/2.
-    knee_radius = max(max(max(v.radii[:2]) for v in shins), max(limb_section(v.name, 0.5 * levels["thigh"]) for v in thighs))
+    knee_radius = max(max(max(v.radii[:2]) for v in shins),
+                      max(limb_section(v.name, 0.5 * levels["thigh"]) for v in thighs))
     ankle_radius = max(limb_section(v.name, 0.5 * levels["shin"]) for v in shins)
     head, head_centre, _ = placed("head")
     chest, chest_centre, chest_axis = placed("chest")

@@ -45,9 +45,8 @@ import numpy as np
 from ..params import DEFAULT_PARAMS, SolverParams
 from ..transforms import quat_conjugate, quat_multiply, transform_points, yaw_quat
 from . import kernels
-from .motion_constraints import SkinBinding, limit_distance
 from .model import BEND, SHEAR, STRUCTURAL, ClothModel
-
+from .motion_constraints import SkinBinding, limit_distance
 
 _NO_ROTATIONS = np.zeros((0, 4))
 
@@ -456,7 +455,8 @@ class GarmentSolver:
     def _guard(self, report: FrameReport, last_good: ClothState, frame: FrameInput) -> None:
         """Never keep a non-finite or runaway garment: non-finite values restore the last good state
         (at rest); a spring beyond ``RUNAWAY_STRETCH`` times its rest length re-fits the garment (its
-        rest shape moved to where its attached points now are, those on the new pose). ``report.recovery`` names what was done."""
+        rest shape moved to where its attached points now are, those on the new pose). ``report.recovery``
+        names what was done."""
         x, v = self.state.positions, self.state.velocities
         if np.isfinite(x).all() and np.isfinite(v).all():
             if report.max_stretch <= self.RUNAWAY_STRETCH:

@@ -26,8 +26,17 @@ from __future__ import annotations
 
 import math
 
-from .kernels import (capsule_entry, kernel, penetration_depth, quadric_entry, rotate, static_projection,
-                      surface_velocity, to_local, to_world)
+from .kernels import (
+    capsule_entry,
+    kernel,
+    penetration_depth,
+    quadric_entry,
+    rotate,
+    static_projection,
+    surface_velocity,
+    to_local,
+    to_world,
+)
 from .volumes import CAPSULE
 
 # Barycentric and segment-parameter slack of the crossing test: a bone through a shared edge or
@@ -73,9 +82,12 @@ def segment_crosses_triangle(px, py, pz, dx, dy, dz, x, a, b, c):
 def segment_misses_triangle_box(x, a, b, c, px, py, pz, qx, qy, qz):
     """True when the bounding boxes of segment p -> q and triangle (a, b, c) of ``x`` are apart (1 nm slack):
     then the segment cannot cross the triangle. Most triangles are nowhere near a bone."""
-    return (max(x[a, 0], x[b, 0], x[c, 0]) < min(px, qx) - 1e-9 or min(x[a, 0], x[b, 0], x[c, 0]) > max(px, qx) + 1e-9
-            or max(x[a, 1], x[b, 1], x[c, 1]) < min(py, qy) - 1e-9 or min(x[a, 1], x[b, 1], x[c, 1]) > max(py, qy) + 1e-9
-            or max(x[a, 2], x[b, 2], x[c, 2]) < min(pz, qz) - 1e-9 or min(x[a, 2], x[b, 2], x[c, 2]) > max(pz, qz) + 1e-9)
+    return (max(x[a, 0], x[b, 0], x[c, 0]) < min(px, qx) - 1e-9
+            or min(x[a, 0], x[b, 0], x[c, 0]) > max(px, qx) + 1e-9
+            or max(x[a, 1], x[b, 1], x[c, 1]) < min(py, qy) - 1e-9
+            or min(x[a, 1], x[b, 1], x[c, 1]) > max(py, qy) + 1e-9
+            or max(x[a, 2], x[b, 2], x[c, 2]) < min(pz, qz) - 1e-9
+            or min(x[a, 2], x[b, 2], x[c, 2]) > max(pz, qz) + 1e-9)
 
 
 @kernel
@@ -195,8 +207,9 @@ def _push_off_axis(kinds, radii, cuts, bounding_radii, bones, pos0, rot0, pos1, 
     already on that side stays. A corner so moved that is inside v goes out across v's surface, radially
     (it stays on its side), but not into another volume (``_room``: a pinch); an approaching velocity
     relative to v's surface is removed. A triangle with an attached corner is left as it is (it rides on
-    the body), and so is one that would end with a corner deeper than ``pinch_depth`` in another volume: where two volumes overlap
-    more than that round a bone there is no room for cloth, and contact wins. Returns whether it moved."""
+    the body), and so is one that would end with a corner deeper than ``pinch_depth`` in another volume:
+    where two volumes overlap more than that round a bone there is no room for cloth, and contact wins.
+    Returns whether it moved."""
     if inv_mass[triangles[t, 0]] == 0.0 or inv_mass[triangles[t, 1]] == 0.0 or inv_mass[triangles[t, 2]] == 0.0:
         return False  # it rides on the body with its attached corner: moving the others would only tear it
     for k in range(3):
@@ -236,8 +249,8 @@ def _push_off_axis(kinds, radii, cuts, bounding_radii, bones, pos0, rot0, pos1, 
 
 
 @kernel
-def handle_axes(kinds, radii, cuts, bounding_radii, bones, pos0, rot0, pos1, rot1, triangles, xs, x, vel, inv_mass, h, eps,
-                pinch_depth, passes, corners):
+def handle_axes(kinds, radii, cuts, bounding_radii, bones, pos0, rot0, pos1, rot1, triangles, xs, x, vel, inv_mass,
+                h, eps, pinch_depth, passes, corners):
     """Every volume axis (the bones; not spheres) against every triangle (T, 3) of ``x`` at the end poses;
     a crossed triangle goes off the axis (``_push_off_axis``). Moving one can cross a neighbour, so up to
     ``passes`` passes, until one moves nothing. ``corners`` (3, 3): scratch. Returns the number of triangles moved."""
@@ -256,8 +269,9 @@ def handle_axes(kinds, radii, cuts, bounding_radii, bones, pos0, rot0, pos1, rot
                 if segment_misses_triangle_box(x, a, b, c, px, py, pz, qx, qy, qz):
                     continue
                 crosses, s, u, w = segment_crosses_triangle(px, py, pz, dx, dy, dz, x, a, b, c)
-                if crosses and _push_off_axis(kinds, radii, cuts, bounding_radii, bones, pos0, rot0, pos1, rot1, v, z0 + s * (z1 - z0),
-                                              triangles, t, u, w, xs, x, vel, inv_mass, h, eps, pinch_depth, corners):
+                if crosses and _push_off_axis(kinds, radii, cuts, bounding_radii, bones, pos0, rot0, pos1, rot1, v,
+                                              z0 + s * (z1 - z0), triangles, t, u, w, xs, x, vel, inv_mass, h, eps,
+                                              pinch_depth, corners):
                     moved += 1
         n_moved += moved
         if moved == 0:
