@@ -27,7 +27,7 @@ from numba import njit
 from .cloth.kernels import spring_stretches
 from .cloth.model import SHEAR, STRUCTURAL
 from .collision.crossing import segment_crosses_triangle, segment_misses_triangle_box
-from .collision.kernels import to_local
+from .collision.geometry import to_local
 from .transforms import quat_to_matrix
 
 # name, joint-map role at the bone's start, role at its end (body.joint_map.ROLES)

@@ -314,11 +314,11 @@ def test_broad_phase_does_not_change_results(seed):
 
 
 def test_broad_phase_rejects_far_pairs():
-    from garment_sim_ros.collision import kernels
+    from garment_sim_ros.collision import broad_phase
     vols, pos0, rot0, pos1, rot1, xs, x, v = random_scene(4)
     c = make_collider(vols, len(x), pos0, rot0, pos1, rot0)  # translating volumes
     far = xs + 5.0
-    rejected = [kernels.broad_phase_rejects(c._bounding_radii, c.substep_start_positions, c.substep_end_positions,
+    rejected = [broad_phase.broad_phase_rejects(c._bounding_radii, c.substep_start_positions, c.substep_end_positions,
                                             c._displacement, c._chord, k, far, far + 0.01, 0) for k in range(3)]
     assert all(rejected)
 

@@ -6,7 +6,7 @@ no result over several substeps of moving volumes (cache carried along)."""
 import numpy as np
 import pytest
 
-from garment_sim_ros.collision import kernels
+from garment_sim_ros.collision import broad_phase, geometry
 from garment_sim_ros.collision.collider import PARALLEL_MIN_POINTS, Collider
 from garment_sim_ros.collision.volumes import CAPSULE, ELLIPSOID, SPHERE, Volume, VolumeSet
 from garment_sim_ros.transforms import quat_from_axis_angle
@@ -25,7 +25,7 @@ def _local_arrays(volumes):
     radii = np.ascontiguousarray(vs.radii, dtype=np.float64)
     cuts = np.ascontiguousarray(vs.cuts, dtype=np.float64)
     boxes = np.zeros((len(vs), 6))
-    kernels.local_boxes(kinds, radii, cuts, boxes)
+    broad_phase.local_boxes(kinds, radii, cuts, boxes)
     return kinds, radii, cuts, boxes
 
 
@@ -42,14 +42,14 @@ def test_local_box_never_rejects_a_hit(index):
     for _ in range(6000):
         a = rng.uniform(-extent, extent)
         b = a + rng.normal(0.0, 0.06, 3) if rng.random() < 0.7 else rng.uniform(-extent, extent)
-        inside = kernels.static_projection(kind, radii, cuts, v, *b)[0]
+        inside = geometry.static_projection(kind, radii, cuts, v, *b)[0]
         if kind == CAPSULE:
-            alpha = kernels.capsule_entry(radii, v, *a, *b)
+            alpha = geometry.capsule_entry(radii, v, *a, *b)
         else:
-            alpha = kernels.quadric_entry(kind, radii, cuts, v, *a, *b)
-        t, deep = kernels._deepest_on_segment(kind, radii, cuts, v, *a, *b)
+            alpha = geometry.quadric_entry(kind, radii, cuts, v, *a, *b)
+        t, deep = geometry.deepest_on_segment(kind, radii, cuts, v, *a, *b)
         hit = inside or alpha >= 0.0 or deep
-        rejects = kernels.segment_misses_box(boxes, v, *a, *b)
+        rejects = broad_phase.segment_misses_box(boxes, v, *a, *b)
         if hit:
             hits += 1
             assert not rejects, f"{VOLUMES[v].name}: box rejects a hit, a={a}, b={b}"

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..params import DEFAULT_PARAMS, SolverParams
-from . import crossing, kernels
+from . import broad_phase, crossing, kernels
 from .volumes import VolumeSet
 
 # ``parallel=None``: handle_all and handle_contacts spread the points over numba's threads from this many
@@ -59,8 +59,8 @@ class Collider:
         self.cache = np.full((self.n_points, int(cache_size)), -1, dtype=np.int64)
         self._scratch = np.zeros((self.n_points, 2 * int(cache_size)), dtype=np.int64)
         self._depths = np.zeros(self.n_points)
-        self._boxes = np.zeros((n_volumes, 6))  # local frame, see kernels.local_boxes
-        kernels.local_boxes(self._kinds, self._radii, self._cuts, self._boxes)
+        self._boxes = np.zeros((n_volumes, 6))  # local frame, see broad_phase.local_boxes
+        broad_phase.local_boxes(self._kinds, self._radii, self._cuts, self._boxes)
         self._unbounded_radii = np.full(n_volumes, np.inf)
         self._unbounded_boxes = np.repeat([[-np.inf] * 3 + [np.inf] * 3], n_volumes, axis=0)
         if parallel is None:
@@ -114,11 +114,11 @@ class Collider:
             raise ValueError(f"Collider.begin_substep: need 0 <= f0 < f1 <= 1, got f0={f0}, f1={f1}")
         a_pos, b_pos = self._frame_pos
         a_quat, b_quat = self._frame_quat
-        kernels.interpolate_poses(a_pos, a_quat, b_pos, b_quat, float(f0),
+        broad_phase.interpolate_poses(a_pos, a_quat, b_pos, b_quat, float(f0),
                                   self.substep_start_positions, self.substep_start_rotations)
-        kernels.interpolate_poses(a_pos, a_quat, b_pos, b_quat, float(f1),
+        broad_phase.interpolate_poses(a_pos, a_quat, b_pos, b_quat, float(f1),
                                   self.substep_end_positions, self.substep_end_rotations)
-        kernels.substep_motion(self.substep_start_positions, self.substep_start_rotations,
+        broad_phase.substep_motion(self.substep_start_positions, self.substep_start_rotations,
                                self.substep_end_positions, self.substep_end_rotations,
                                self._displacement, self._chord)
 
@@ -174,7 +174,7 @@ class Collider:
         self._last_h = float(h)
         bounding_radii, boxes = self._bounding_radii, self._boxes
         if self.use_broad_phase:
-            kernels.reach_radii(bounding_radii, self._displacement, self._chord, x_start, x, inv_mass, self._reach)
+            broad_phase.reach_radii(bounding_radii, self._displacement, self._chord, x_start, x, inv_mass, self._reach)
         else:  # infinite bounds: every test of the broad phase passes
             bounding_radii, boxes = self._unbounded_radii, self._unbounded_boxes
             self._reach.fill(np.inf)
@@ -235,7 +235,7 @@ class Collider:
         """(N,) metres inside the deepest volume at the substep-end poses, 0 outside.
 
         Exact for spheres and capsules; for ellipsoids an upper bound of the distance to the
-        curved surface (see ``kernels.penetration_depth``), so "< 1 mm" checks are conservative.
+        curved surface (see ``geometry.penetration_depth``), so "< 1 mm" checks are conservative.
         """
         x = np.ascontiguousarray(x, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != 3:

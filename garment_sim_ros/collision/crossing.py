@@ -26,17 +26,17 @@ from __future__ import annotations
 
 import math
 
-from .kernels import (
+from .geometry import (
     capsule_entry,
     kernel,
     penetration_depth,
     quadric_entry,
     rotate,
     static_projection,
-    surface_velocity,
     to_local,
     to_world,
 )
+from .kernels import surface_velocity
 from .volumes import CAPSULE
 
 # Barycentric and segment-parameter slack of the crossing test: a bone through a shared edge or

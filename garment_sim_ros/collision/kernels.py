@@ -20,10 +20,9 @@ in its neighbour; a point that was hit gets a few extra static passes (``_SETTLE
 The per-point cache (temporal coherence) lists the volumes hit in the last ``handle_all``
 first, then older entries the point is still near; the broad phase evicts the far ones.
 
-Broad phase of ``handle_all``, from cheap to exact, each test only rejecting pairs the exact one would
-miss: the volume's reach (``reach_radii``, one squared distance), then its local box (``local_boxes``)
-against the point's relative trajectory p0' -> p1 in the volume's frame; cached pairs use the bounding
-sphere of the trajectory (``broad_phase_rejects``) instead, as it decides which cache entries stay.
+The local geometry (frames, signed distances, projections, where a path enters a volume) is in
+``collision.geometry``; the broad phase of ``handle_all`` and the pose interpolation in
+``collision.broad_phase``; this module holds the response and the drivers over points and edges.
 """
 
 from __future__ import annotations
@@ -32,7 +31,25 @@ import math
 
 from numba import njit, prange
 
-from .. import quat_kernels as quat
+from .broad_phase import (
+    broad_phase_rejects,
+    out_of_reach,
+    outside_bounding_sphere,
+    segment_misses_box,
+)
+from .geometry import (
+    TINY,
+    capsule_entry,
+    deepest_on_segment,
+    kernel,
+    penetration_depth,
+    quadric_entry,
+    rotate,
+    static_projection,
+    surface_at,
+    to_local,
+    to_world,
+)
 from .volumes import CAPSULE, ELLIPSOID, SPHERE
 
 NO_HIT = 0
@@ -43,277 +60,7 @@ MODE_ADAPTIVE = 0
 MODE_STATIC = 1
 MODE_DYNAMIC = 2
 
-_TINY = 1e-12
-_TRACE_TOLERANCE = 1e-7  # m: sphere tracing stops this close to a capsule's surface
-_TRACE_ITERATIONS = 48
-_SEARCH_ITERATIONS = 60
 _SETTLE_PASSES = 4  # extra static passes for a point hit by a volume (overlapping volumes)
-
-# The kernels work in place on their arguments and allocate nothing, so they are compiled without numba's
-# runtime (``_nrt=False``, as numba's own allocation-free helpers are): a call from one kernel to another then
-# no longer increments and decrements an atomic reference count per array argument, which was most of
-# handle_all's time (docs/benchmarks.md). A kernel that allocated would fail to compile, not misbehave.
-kernel = njit(cache=True, _nrt=False)
-
-
-# ----------------------------------------------------------------------------- frames
-
-@kernel
-def to_local(pos, rot, v, px, py, pz):
-    """Simulation-frame point -> local coordinates of volume ``v`` (R^T (p - pos))."""
-    dx = px - pos[v, 0]
-    dy = py - pos[v, 1]
-    dz = pz - pos[v, 2]
-    # rot[v, r, c], not a view rot[v]: no array is made per call in the hot loops
-    return (rot[v, 0, 0] * dx + rot[v, 1, 0] * dy + rot[v, 2, 0] * dz,
-            rot[v, 0, 1] * dx + rot[v, 1, 1] * dy + rot[v, 2, 1] * dz,
-            rot[v, 0, 2] * dx + rot[v, 1, 2] * dy + rot[v, 2, 2] * dz)
-
-
-@kernel
-def to_world(pos, rot, v, lx, ly, lz):
-    return (pos[v, 0] + rot[v, 0, 0] * lx + rot[v, 0, 1] * ly + rot[v, 0, 2] * lz,
-            pos[v, 1] + rot[v, 1, 0] * lx + rot[v, 1, 1] * ly + rot[v, 1, 2] * lz,
-            pos[v, 2] + rot[v, 2, 0] * lx + rot[v, 2, 1] * ly + rot[v, 2, 2] * lz)
-
-
-@kernel
-def rotate(rot, v, lx, ly, lz):
-    return (rot[v, 0, 0] * lx + rot[v, 0, 1] * ly + rot[v, 0, 2] * lz,
-            rot[v, 1, 0] * lx + rot[v, 1, 1] * ly + rot[v, 1, 2] * lz,
-            rot[v, 2, 0] * lx + rot[v, 2, 1] * ly + rot[v, 2, 2] * lz)
-
-
-# ----------------------------------------------------------------------------- geometry
-
-@kernel
-def capsule_sdf(r_bottom, r_top, half_length, x, y, z):
-    """Exact signed distance and unit outward normal of a tapered capsule (round cone).
-
-    The convex hull of the sphere ``r_bottom`` at ``z = -half_length`` and the sphere
-    ``r_top`` at ``z = +half_length``; in the (rho, z) half plane the surface is the two
-    circles joined by their common tangent line (after Quilez's round-cone distance).
-    """
-    height = 2.0 * half_length
-    w = z + half_length
-    rho = math.sqrt(x * x + y * y)
-    if rho > _TINY:
-        ux, uy = x / rho, y / rho
-    else:  # on the axis: any radial direction is as good
-        ux, uy = 1.0, 0.0
-    b = (r_bottom - r_top) / height
-    if abs(b) >= 1.0:  # one end sphere contains the other: the capsule is that sphere
-        cz = -half_length if r_bottom >= r_top else half_length
-        radius = max(r_bottom, r_top)
-        return _sphere_sdf(radius, x, y, z - cz)
-    a = math.sqrt(1.0 - b * b)
-    k = -b * rho + a * w
-    if k < 0.0:
-        return _sphere_sdf(r_bottom, x, y, z + half_length)
-    if k > a * height:
-        return _sphere_sdf(r_top, x, y, z - half_length)
-    return a * rho + b * w - r_bottom, a * ux, a * uy, b
-
-
-@kernel
-def _sphere_sdf(radius, x, y, z):
-    d = math.sqrt(x * x + y * y + z * z)
-    if d > _TINY:
-        return d - radius, x / d, y / d, z / d
-    return -radius, 0.0, 0.0, 1.0
-
-
-@kernel
-def _unit_gradient(ax, ay, az, x, y, z):
-    """Unit outward normal of the quadric (x/ax)^2 + (y/ay)^2 + (z/az)^2 = 1 at (x, y, z)."""
-    gx = x / (ax * ax)
-    gy = y / (ay * ay)
-    gz = z / (az * az)
-    g = math.sqrt(gx * gx + gy * gy + gz * gz)
-    if g > _TINY:
-        return gx / g, gy / g, gz / g
-    return 0.0, 0.0, 1.0
-
-
-@kernel
-def static_projection(kind, radii, cuts, v, x, y, z):
-    """Static handling geometry (memo Eq. 6-1, 6-3, 6-4) in the local frame.
-
-    Returns ``(inside, sx, sy, sz, nx, ny, nz)``: whether the point is inside the volume and,
-    if so, the surface point it is moved to (without eps) and the unit outward normal there.
-    Sphere: radially from the centre. Ellipsoid: z kept, (x, y) scaled onto the cross-section
-    ellipse at that z, only where ``cut[0] <= z <= cut[1]``. Capsule: along the exact distance
-    gradient, i.e. radially from the nearest point of the tapered axis.
-    """
-    if kind == SPHERE:
-        r = radii[v, 0]
-        d, nx, ny, nz = _sphere_sdf(r, x, y, z)
-        if d >= 0.0:
-            return False, x, y, z, nx, ny, nz
-        return True, r * nx, r * ny, r * nz, nx, ny, nz
-    if kind == ELLIPSOID:
-        ax, ay, az = radii[v, 0], radii[v, 1], radii[v, 2]
-        if z < cuts[v, 0] or z > cuts[v, 1]:
-            return False, x, y, z, 0.0, 0.0, 1.0
-        xy = (x / ax) ** 2 + (y / ay) ** 2
-        zz = (z / az) ** 2
-        if xy + zz >= 1.0:
-            return False, x, y, z, 0.0, 0.0, 1.0
-        section = math.sqrt(max(0.0, 1.0 - zz))  # cross-section scale at this z
-        if xy > _TINY * _TINY:
-            s = section / math.sqrt(xy)
-            sx, sy = s * x, s * y
-        else:  # on the axis: out along local x
-            sx, sy = section * ax, 0.0
-        nx, ny, nz = _unit_gradient(ax, ay, az, sx, sy, z)
-        return True, sx, sy, z, nx, ny, nz
-    d, nx, ny, nz = capsule_sdf(radii[v, 0], radii[v, 1], radii[v, 2], x, y, z)
-    if d >= 0.0:
-        return False, x, y, z, nx, ny, nz
-    return True, x - d * nx, y - d * ny, z - d * nz, nx, ny, nz
-
-
-@kernel
-def penetration_depth(kind, radii, cuts, v, x, y, z):
-    """Depth (m) of a local point inside the volume, 0 outside.
-
-    Sphere and capsule: exact. Ellipsoid (inside and within the cut): an upper bound of the
-    exact distance to the ellipsoid's surface, the smallest of the distances to three surface
-    points: the static projection (cross-section), the radial one from the centre, and the
-    one reached along the gradient direction (tight near the surface, second order). The cut
-    planes are joins to neighbouring volumes, not surfaces, so depth is measured to the
-    curved surface only. An upper bound makes "deeper than 1 mm" assertions conservative.
-    """
-    if kind == ELLIPSOID:
-        inside, sx, sy, sz, nx, ny, nz = static_projection(kind, radii, cuts, v, x, y, z)
-        if not inside:
-            return 0.0
-        ax, ay, az = radii[v, 0], radii[v, 1], radii[v, 2]
-        best = math.sqrt((sx - x) ** 2 + (sy - y) ** 2 + (sz - z) ** 2)
-        q = math.sqrt((x / ax) ** 2 + (y / ay) ** 2 + (z / az) ** 2)
-        if q > _TINY:
-            best = min(best, math.sqrt(x * x + y * y + z * z) * (1.0 / q - 1.0))
-        gx, gy, gz = _unit_gradient(ax, ay, az, x, y, z)
-        t = _ray_exit(ax, ay, az, x, y, z, gx, gy, gz)
-        if t >= 0.0:
-            best = min(best, t)
-        return best
-    if kind == SPHERE:
-        d, nx, ny, nz = _sphere_sdf(radii[v, 0], x, y, z)
-    else:
-        d, nx, ny, nz = capsule_sdf(radii[v, 0], radii[v, 1], radii[v, 2], x, y, z)
-    return max(0.0, -d)
-
-
-@kernel
-def _ray_exit(ax, ay, az, x, y, z, dx, dy, dz):
-    """Positive parameter where the ray (x, y, z) + t d leaves the quadric, from inside; -1 if none."""
-    qa = (dx / ax) ** 2 + (dy / ay) ** 2 + (dz / az) ** 2
-    qb = 2.0 * (x * dx / (ax * ax) + y * dy / (ay * ay) + z * dz / (az * az))
-    qc = (x / ax) ** 2 + (y / ay) ** 2 + (z / az) ** 2 - 1.0
-    disc = qb * qb - 4.0 * qa * qc
-    if qa < _TINY or disc < 0.0:
-        return -1.0
-    return (-qb + math.sqrt(disc)) / (2.0 * qa)
-
-
-# ----------------------------------------------------------------------------- dynamic detection
-
-@kernel
-def quadric_entry(kind, radii, cuts, v, x0, y0, z0, x1, y1, z1):
-    """Memo Eq. 6-5, 6-6: first alpha in [0, 1] where l(alpha) = p0' + alpha (p1 - p0') enters
-    the sphere/ellipsoid through its curved surface within the cut; -1 if it does not.
-
-    -1 as well when p0' is already inside (nothing to enter; the caller falls back to static
-    handling of p1) and for a grazing ray (discriminant < 0). A segment whose entry point lies
-    beyond a cut enters through a cut plane: cut planes are joins to the neighbouring volumes,
-    not surfaces, so that is no hit either; if p1 ends inside, static handling pushes it out
-    across the curved surface, as the memo does for slow points (or, far from it, back through
-    the cut: ``_CUT_EXIT_SHARE``).
-    """
-    ax, ay, az = radii[v, 0], radii[v, 1], radii[v, 2]
-    dx, dy, dz = x1 - x0, y1 - y0, z1 - z0
-    qa = (dx / ax) ** 2 + (dy / ay) ** 2 + (dz / az) ** 2
-    qb = 2.0 * (x0 * dx / (ax * ax) + y0 * dy / (ay * ay) + z0 * dz / (az * az))
-    qc = (x0 / ax) ** 2 + (y0 / ay) ** 2 + (z0 / az) ** 2 - 1.0
-    if qc <= 0.0 or qb >= 0.0 or qa < _TINY:
-        return -1.0  # starts inside/on it, or moves away from it (both roots < 0), or does not move
-    disc = qb * qb - 4.0 * qa * qc
-    if disc < 0.0:
-        return -1.0
-    alpha = 2.0 * qc / (-qb + math.sqrt(disc))  # the smaller root, in the cancellation-free form
-    if alpha > 1.0:
-        return -1.0
-    if kind == ELLIPSOID:
-        z = z0 + alpha * dz
-        if z < cuts[v, 0] or z > cuts[v, 1]:
-            return -1.0
-    return alpha
-
-
-@kernel
-def _capsule_minimum(r_bottom, r_top, half_length, ox, oy, oz, dx, dy, dz, lo, hi, iterations):
-    """Golden-section search for the t in [lo, hi] where the capsule's signed distance at o + t d is
-    least (one minimum: the capsule is convex); the middle of the last bracket."""
-    g = 0.5 * (math.sqrt(5.0) - 1.0)
-    for _ in range(iterations):
-        m1 = hi - g * (hi - lo)
-        m2 = lo + g * (hi - lo)
-        f1 = capsule_sdf(r_bottom, r_top, half_length, ox + m1 * dx, oy + m1 * dy, oz + m1 * dz)[0]
-        f2 = capsule_sdf(r_bottom, r_top, half_length, ox + m2 * dx, oy + m2 * dy, oz + m2 * dz)[0]
-        if f1 < f2:
-            hi = m2
-        else:
-            lo = m1
-    return 0.5 * (lo + hi)
-
-
-@kernel
-def capsule_entry(radii, v, x0, y0, z0, x1, y1, z1):
-    """First alpha in [0, 1] where the segment enters the tapered capsule; -1 if it does not.
-
-    Sphere tracing on the exact signed distance (never steps past the surface); a grazing
-    segment that has not converged after a few dozen steps is finished by a golden-section
-    search for the minimum of the distance along the segment (convex: the capsule is convex)
-    and a bisection between the last outside point and that minimum.
-    """
-    rb, rt, hl = radii[v, 0], radii[v, 1], radii[v, 2]
-    dx, dy, dz = x1 - x0, y1 - y0, z1 - z0
-    length = math.sqrt(dx * dx + dy * dy + dz * dz)
-    d0 = capsule_sdf(rb, rt, hl, x0, y0, z0)[0]
-    if d0 <= 0.0 or length < _TINY:
-        return -1.0
-    ux, uy, uz = dx / length, dy / length, dz / length
-    t = 0.0
-    for _ in range(_TRACE_ITERATIONS):
-        d = capsule_sdf(rb, rt, hl, x0 + t * ux, y0 + t * uy, z0 + t * uz)[0]
-        if d < _TRACE_TOLERANCE:
-            return t / length
-        t += d
-        if t > length:
-            return -1.0
-    # grazing: minimise the distance over [t, length]
-    t_min = _capsule_minimum(rb, rt, hl, x0, y0, z0, ux, uy, uz, t, length, _SEARCH_ITERATIONS)
-    if capsule_sdf(rb, rt, hl, x0 + t_min * ux, y0 + t_min * uy, z0 + t_min * uz)[0] > 0.0:
-        return -1.0
-    lo, hi = t, t_min
-    for _ in range(_SEARCH_ITERATIONS):
-        mid = 0.5 * (lo + hi)
-        if capsule_sdf(rb, rt, hl, x0 + mid * ux, y0 + mid * uy, z0 + mid * uz)[0] > 0.0:
-            lo = mid
-        else:
-            hi = mid
-    return hi / length
-
-
-@kernel
-def surface_at(kind, radii, v, x, y, z):
-    """Closest-surface point and unit normal for a point on (or within tolerance of) the surface."""
-    if kind == CAPSULE:
-        d, nx, ny, nz = capsule_sdf(radii[v, 0], radii[v, 1], radii[v, 2], x, y, z)
-        return x - d * nx, y - d * ny, z - d * nz, nx, ny, nz
-    nx, ny, nz = _unit_gradient(radii[v, 0], radii[v, 1], radii[v, 2], x, y, z)
-    return x, y, z, nx, ny, nz
 
 
 # ----------------------------------------------------------------------------- response
@@ -428,121 +175,6 @@ def _respond(pos0, rot0, pos1, rot1, v, x, vel, i, sx, sy, sz, nx, ny, nz, eps, 
     vel[i, 2] = svz + rz
 
 
-# ----------------------------------------------------------------------------- broad phase
-
-@kernel
-def broad_phase_rejects(bounding_radii, pos0, pos1, displacement, chord, v, xs, x, i):
-    """True when point i's simplified relative trajectory cannot reach volume v.
-
-    With a = |p0 - c0| (start, start pose), b = |p1 - c1| (end, end pose) and L an upper bound
-    of the relative trajectory |p1 - p0'| (point sweep + centre displacement + a times the
-    chord 2 sin(theta/2) of the volume's rotation over the substep), every point of the
-    segment p0' -> p1 is at least (a + b - L) / 2 from the centre. That covers the static test
-    too (b >= (a + b - L) / 2), so rejecting never changes a result.
-    """
-    a = math.sqrt((xs[i, 0] - pos0[v, 0]) ** 2 + (xs[i, 1] - pos0[v, 1]) ** 2 + (xs[i, 2] - pos0[v, 2]) ** 2)
-    b = math.sqrt((x[i, 0] - pos1[v, 0]) ** 2 + (x[i, 1] - pos1[v, 1]) ** 2 + (x[i, 2] - pos1[v, 2]) ** 2)
-    sweep = math.sqrt((x[i, 0] - xs[i, 0]) ** 2 + (x[i, 1] - xs[i, 1]) ** 2 + (x[i, 2] - xs[i, 2]) ** 2)
-    bound = sweep + displacement[v] + a * chord[v]
-    return 0.5 * (a + b - bound) > bounding_radii[v] * (1.0 + 1e-9) + 1e-12
-
-
-@kernel
-def _out_of_reach(reach, pos1, v, x, i):
-    """Beyond ``reach_radii``: point i's substep cannot touch volume v."""
-    return (x[i, 0] - pos1[v, 0]) ** 2 + (x[i, 1] - pos1[v, 1]) ** 2 + (x[i, 2] - pos1[v, 2]) ** 2 > reach[v] * reach[v]
-
-
-@kernel
-def _outside_bounding_sphere(bounding_radii, pos, v, x, i):
-    d2 = (x[i, 0] - pos[v, 0]) ** 2 + (x[i, 1] - pos[v, 1]) ** 2 + (x[i, 2] - pos[v, 2]) ** 2
-    return d2 > bounding_radii[v] * bounding_radii[v]
-
-
-# Local boxes are this much larger than the volume: capsule entry stops _TRACE_TOLERANCE short of the
-# surface, and a dynamic entry point is computed on the segment up to rounding.
-_BOX_MARGIN = 1e-6
-
-
-@kernel
-def local_boxes(kinds, radii, cuts, boxes):
-    """Per volume, ``(lo_x, lo_y, lo_z, hi_x, hi_y, hi_z)`` in its local frame: a box holding every point
-    that can count as inside it or as a dynamic entry point (ellipsoids: within the cut only)."""
-    for v in range(kinds.shape[0]):
-        if kinds[v] == CAPSULE:
-            r = max(radii[v, 0], radii[v, 1])
-            hx, hy, lo_z, hi_z = r, r, -radii[v, 2] - r, radii[v, 2] + r
-        elif kinds[v] == ELLIPSOID:
-            hx, hy = radii[v, 0], radii[v, 1]
-            lo_z, hi_z = max(-radii[v, 2], cuts[v, 0]), min(radii[v, 2], cuts[v, 1])
-        else:  # sphere: radii[v, 0] for the static test, all three for the quadric entry
-            r = max(radii[v, 0], max(radii[v, 1], radii[v, 2]))
-            hx, hy, lo_z, hi_z = r, r, -r, r
-        margin = _BOX_MARGIN + 1e-9 * max(hx, max(hy, max(-lo_z, hi_z)))
-        boxes[v, 0], boxes[v, 1], boxes[v, 2] = -hx - margin, -hy - margin, lo_z - margin
-        boxes[v, 3], boxes[v, 4], boxes[v, 5] = hx + margin, hy + margin, hi_z + margin
-
-
-@kernel
-def segment_misses_box(boxes, v, ax, ay, az, bx, by, bz):
-    """True when the local segment a -> b lies wholly outside volume v's local box (then neither the
-    static test of b nor the dynamic one of the segment can hit: both points lie on the segment)."""
-    return (min(ax, bx) > boxes[v, 3] or max(ax, bx) < boxes[v, 0]
-            or min(ay, by) > boxes[v, 4] or max(ay, by) < boxes[v, 1]
-            or min(az, bz) > boxes[v, 5] or max(az, bz) < boxes[v, 2])
-
-
-@kernel
-def substep_motion(pos0, rot0, pos1, rot1, displacement, chord):
-    """Per volume: centre displacement and rotation chord 2 sin(theta/2) = sqrt(3 - tr(R1 R0^T))."""
-    for v in range(pos0.shape[0]):
-        displacement[v] = math.sqrt((pos1[v, 0] - pos0[v, 0]) ** 2 + (pos1[v, 1] - pos0[v, 1]) ** 2
-                                    + (pos1[v, 2] - pos0[v, 2]) ** 2)
-        trace = 0.0
-        for r in range(3):
-            for c in range(3):
-                trace += rot1[v, r, c] * rot0[v, r, c]
-        chord[v] = math.sqrt(max(0.0, 3.0 - trace)) * (1.0 + 1e-9) + 1e-12
-
-
-@kernel
-def reach_radii(bounding_radii, displacement, chord, xs, x, inv_mass, reach):
-    """Per volume, the distance from its end-pose centre beyond which no point's substep can touch it.
-
-    The relative trajectory ends at p1 and is at most L = s + d + a c long (``broad_phase_rejects``),
-    with a <= b + s + d (triangle inequality), so it keeps at least b - L from the centre; it cannot
-    reach the bounding sphere R when b (1 - c) > R + (s + d)(1 + c), with s the largest sweep of any
-    free point this substep. One squared distance per pair then rejects the far ones."""
-    sweep2 = 0.0
-    for i in range(x.shape[0]):
-        if inv_mass[i] == 0.0:
-            continue
-        d2 = (x[i, 0] - xs[i, 0]) ** 2 + (x[i, 1] - xs[i, 1]) ** 2 + (x[i, 2] - xs[i, 2]) ** 2
-        if d2 > sweep2:
-            sweep2 = d2
-    sweep = math.sqrt(sweep2)
-    for v in range(bounding_radii.shape[0]):
-        c = chord[v]
-        if c >= 0.5:
-            reach[v] = math.inf
-        else:
-            reach[v] = (bounding_radii[v] + (sweep + displacement[v]) * (1.0 + c)) / (1.0 - c) * (1.0 + 1e-9) + 1e-12
-
-
-# ----------------------------------------------------------------------------- pose interpolation
-
-@kernel
-def interpolate_poses(pos_a, quat_a, pos_b, quat_b, fraction, out_pos, out_rot):
-    """Poses at ``fraction`` between a and b: translation linear, rotation slerp (shorter arc),
-    written as positions and rotation matrices into the preallocated outputs."""
-    for v in range(pos_a.shape[0]):
-        for k in range(3):
-            out_pos[v, k] = pos_a[v, k] + fraction * (pos_b[v, k] - pos_a[v, k])
-        qx, qy, qz, qw = quat.slerp(quat_a[v, 0], quat_a[v, 1], quat_a[v, 2], quat_a[v, 3],
-                                    quat_b[v, 0], quat_b[v, 1], quat_b[v, 2], quat_b[v, 3], fraction)
-        quat.matrix_into(out_rot, v, qx, qy, qz, qw)
-
-
 # ----------------------------------------------------------------------------- drivers over points
 
 @kernel
@@ -551,7 +183,7 @@ def _next_candidate(pos0, rot0, pos1, rot1, reach, boxes, xs, x, i, cache, start
     meets the segment p0' -> p1); the volume count if none. Most pairs end here, in a few dozen flops."""
     n_volumes = reach.shape[0]
     for v in range(start, n_volumes):
-        if _out_of_reach(reach, pos1, v, x, i):
+        if out_of_reach(reach, pos1, v, x, i):
             continue
         bx, by, bz = to_local(pos1, rot1, v, x[i, 0], x[i, 1], x[i, 2])
         ax, ay, az = to_local(pos0, rot0, v, xs[i, 0], xs[i, 1], xs[i, 2])
@@ -607,7 +239,7 @@ def _handle_point_all(kinds, radii, cuts, bounding_radii, switch_radii, pos0, ro
             continue
         # A cached volume the point left is evicted by the bounding-sphere test, which decides what
         # handle_contacts sees next.
-        if (_out_of_reach(reach, pos1, v, x, i)
+        if (out_of_reach(reach, pos1, v, x, i)
                 or broad_phase_rejects(bounding_radii, pos0, pos1, displacement, chord, v, xs, x, i)):
             continue
         code = handle_pair(kinds, radii, cuts, switch_radii, pos0, rot0, pos1, rot1, v,
@@ -637,7 +269,7 @@ def _handle_point_all(kinds, radii, cuts, bounding_radii, switch_radii, pos0, ro
     for _ in range(_SETTLE_PASSES if n_static + n_dynamic > 0 else 0):
         moved = False
         for v in range(n_volumes):
-            if _outside_bounding_sphere(bounding_radii, pos1, v, x, i):
+            if outside_bounding_sphere(bounding_radii, pos1, v, x, i):
                 continue
             code = handle_pair(kinds, radii, cuts, switch_radii, pos0, rot0, pos1, rot1, v,
                                xs, x, vel, i, h, eps, friction, c_time, switch_ratio, MODE_STATIC)[0]
@@ -749,32 +381,6 @@ def handle_contacts_parallel(kinds, radii, cuts, bounding_radii, switch_radii, p
     return n_moved
 
 
-@kernel
-def _deepest_on_segment(kind, radii, cuts, v, ax, ay, az, bx, by, bz):
-    """Where the segment a -> b (local frame) goes deepest into volume v: ``(t, inside)``.
-
-    Ellipsoid and sphere: the point nearest the centre in coordinates scaled by the radii (exact);
-    capsule: the minimum of the signed distance along the segment (convex) by golden-section search.
-    Outside the cut (a join to the neighbouring volume) is not inside.
-    """
-    dx, dy, dz = bx - ax, by - ay, bz - az
-    if kind == CAPSULE:
-        t = _capsule_minimum(radii[v, 0], radii[v, 1], radii[v, 2], ax, ay, az, dx, dy, dz, 0.0, 1.0,
-                             _SEARCH_ITERATIONS // 2)
-        depth = capsule_sdf(radii[v, 0], radii[v, 1], radii[v, 2], ax + t * dx, ay + t * dy, az + t * dz)[0]
-        return t, depth < 0.0
-    rx, ry, rz = radii[v, 0], radii[v, 1], radii[v, 2]
-    sx, sy, sz = ax / rx, ay / ry, az / rz
-    ex, ey, ez = dx / rx, dy / ry, dz / rz
-    ee = ex * ex + ey * ey + ez * ez
-    t = 0.0 if ee < _TINY * _TINY else min(1.0, max(0.0, -(sx * ex + sy * ey + sz * ez) / ee))
-    qx, qy, qz = sx + t * ex, sy + t * ey, sz + t * ez
-    if qx * qx + qy * qy + qz * qz >= 1.0:
-        return t, False
-    z = az + t * dz
-    return t, kind == SPHERE or cuts[v, 0] <= z <= cuts[v, 1]
-
-
 # Edges up to this many times their rest length are not tested: between two points outside a convex
 # volume such a chord dips at most its sagitta, which exceeds the rest length's by (L/2)^2 (slack - 1) / r
 # -- under 0.1 mm for 3 cm edges on a 5 cm limb -- and the length correction keeps most edges within 1 %.
@@ -818,7 +424,7 @@ def handle_edges(kinds, radii, cuts, bounding_radii, boxes, pos0, rot0, pos, rot
             bx, by, bz = to_local(pos, rot, v, x[b, 0], x[b, 1], x[b, 2])
             if segment_misses_box(boxes, v, ax, ay, az, bx, by, bz):
                 continue  # no point of the edge is inside the volume
-            t, inside = _deepest_on_segment(kinds[v], radii, cuts, v, ax, ay, az, bx, by, bz)
+            t, inside = deepest_on_segment(kinds[v], radii, cuts, v, ax, ay, az, bx, by, bz)
             if not inside or t <= 0.0 or t >= 1.0:
                 continue
             px, py, pz = ax + t * (bx - ax), ay + t * (by - ay), az + t * (bz - az)
@@ -834,7 +440,7 @@ def handle_edges(kinds, radii, cuts, bounding_radii, boxes, pos0, rot0, pos, rot
                 # towards the start point meets the surface (static projection of a point just off it)
                 ux, uy = ox, oy
                 norm = math.sqrt(ux * ux + uy * uy)
-                if norm > _TINY:
+                if norm > TINY:
                     lift = 1e-6 * max(radii[v, 0], radii[v, 1])
                     inside, sx, sy, sz, nx, ny, nz = static_projection(
                         kinds[v], radii, cuts, v, lift * ux / norm, lift * uy / norm, pz)
