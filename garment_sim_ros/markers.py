@@ -76,12 +76,17 @@ def volume_markers(volumes: tuple, namespace: str, frame_id: str, stamp: tuple[i
             for i in range(len(centers))]
 
 
+def delete_all(frame_id: str, stamp: tuple[int, int]) -> MarkerData:
+    """A DELETEALL: RViz drops every marker of this publisher before the ones after it in the array."""
+    return MarkerData(ns="", id=0, type=0, action=DELETEALL, frame_id=frame_id, stamp=stamp)
+
+
 def frame_markers(payload: dict, namespace: str, frame_id: str, stamp: tuple[int, int],
                   with_volumes: bool, clear: bool = False) -> list[MarkerData]:
     """Every marker of one frame: the garments of ``payload["garments"]``, then (optionally) the volumes;
     first a DELETEALL when ``clear`` (the character was dressed again, the garments or namespaces changed:
     the old markers go)."""
-    markers = [MarkerData(ns="", id=0, type=0, action=DELETEALL, frame_id=frame_id, stamp=stamp)] if clear else []
+    markers = [delete_all(frame_id, stamp)] if clear else []
     markers += [garment_marker(mesh, namespace, frame_id, stamp) for mesh in payload["garments"]]
     if with_volumes:
         markers += volume_markers(payload["volumes"], namespace, frame_id, stamp)

@@ -22,12 +22,12 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
 from ..body.pose_buffer import PoseBuffer
-from ..markers import frame_markers
+from ..markers import delete_all, frame_markers
 from ..params import ParameterError, SolverParams
 from ..rerun_log import frame_payload
 from .character_loop import CharacterLoop, FrameResult
 from .frame_stats import FrameStats
-from .marker_cdr import DELETEALL, MarkerData
+from .marker_cdr import MarkerData
 from .settings import garment_folders
 from .tf_input import IngestResult, TFDecoder, TransformBatch, ingest_batch, seconds_to_stamp
 
@@ -148,7 +148,6 @@ def crowd_markers(members: Sequence[Member], clear: bool) -> list[MarkerData]:
     markers = [m for member in members for m in member.markers]
     if clear and markers:
         newest = max((member.held[1] for member in members), key=lambda stamp: stamp)
-        markers.insert(0, MarkerData(ns="", id=0, type=0, action=DELETEALL, frame_id=markers[0].frame_id,
-                                     stamp=newest))
+        markers.insert(0, delete_all(markers[0].frame_id, newest))
     return markers
 
