@@ -100,6 +100,10 @@ class _Side:
     letter: str  # L
     lower: str  # l
 
+    def point(self, name: str) -> np.ndarray:
+        """The standing figure's point ``name`` on this side."""
+        return _point(name, self.sign)
+
 
 _SIDES = (_Side(1.0, "Left", "L", "l"), _Side(-1.0, "Right", "R", "r"))
 
@@ -135,7 +139,7 @@ def _cmu_motionbuilder(spec: _Spec, root: str | None) -> None:
     # cgspeed's CMU: LHipJoint and LowerBack at the hips, Spine1 -> Neck and the collars zero-length.
     spec.add("Hips", root, _point("pelvis"), aim="Spine")
     for s in _SIDES:
-        p = lambda n: _point(n, s.sign)  # noqa: E731
+        p = s.point
         spec.chain("Hips", [(f"{s.letter}HipJoint", p("pelvis")), (f"{s.word}UpLeg", p("hip")),
                             (f"{s.word}Leg", p("knee")),
                             (f"{s.word}Foot", p("ankle")), (f"{s.word}ToeBase", p("ball"))], end=p("toe_tip"))
@@ -143,7 +147,7 @@ def _cmu_motionbuilder(spec: _Spec, root: str | None) -> None:
                         ("Neck", _point("neck_base")), ("Neck1", _point("neck_mid")), ("Head", _point("skull"))],
                end=_point("head_top"))
     for s in _SIDES:
-        p = lambda n: _point(n, s.sign)  # noqa: E731
+        p = s.point
         spec.chain("Spine1", [(f"{s.word}Shoulder", p("neck_base")), (f"{s.word}Arm", p("shoulder")),
                               (f"{s.word}ForeArm", p("elbow")), (f"{s.word}Hand", p("wrist")),
                               (f"{s.word}FingerBase", _lerp(p("wrist"), p("knuckle"), 0.5)),
@@ -154,7 +158,7 @@ def _cmu_motionbuilder(spec: _Spec, root: str | None) -> None:
 def _cmu_3dsmax(spec: _Spec, root: str | None) -> None:
     spec.add("Hips", root, _point("pelvis"), aim="Chest")
     for s in _SIDES:
-        p = lambda n: _point(n, s.sign)  # noqa: E731
+        p = s.point
         spec.chain("Hips", [(f"{s.letter}HipJoint", p("pelvis")), (f"{s.word}Hip", p("hip")),
                             (f"{s.word}Knee", p("knee")),
                             (f"{s.word}Ankle", p("ankle")), (f"{s.word}Toe", p("ball"))], end=p("toe_tip"))
@@ -162,7 +166,7 @@ def _cmu_3dsmax(spec: _Spec, root: str | None) -> None:
                         ("lowerneck", _point("neck_base")), ("Neck", _point("neck_mid")), ("Head", _point("skull"))],
                end=_point("head_top"))
     for s in _SIDES:
-        p = lambda n: _point(n, s.sign)  # noqa: E731
+        p = s.point
         spec.chain("Chest2", [(f"{s.word}Collar", p("neck_base")), (f"{s.word}Shoulder", p("shoulder")),
                               (f"{s.word}Elbow", p("elbow")), (f"{s.word}Wrist", p("wrist")),
                               (f"{s.lower}hand", p("wrist")), (f"{s.letter}Fingers", p("knuckle"))],
@@ -174,7 +178,7 @@ def _character_creator(spec: _Spec, root: str | None) -> None:
     spec.add("CC_Base_Hip", root, _point("pelvis"), aim="CC_Base_Waist")
     spec.add("CC_Base_Pelvis", "CC_Base_Hip", _point("pelvis"))  # zero-length, carries the legs
     for s in _SIDES:
-        p = lambda n: _point(n, s.sign)  # noqa: E731
+        p = s.point
         b = f"CC_Base_{s.letter}_"
         spec.chain("CC_Base_Pelvis", [(b + "Thigh", p("hip")), (b + "Calf", p("knee")), (b + "Foot", p("ankle")),
                                       (b + "ToeBase", p("ball"))], end=p("toe_tip"))
@@ -188,10 +192,10 @@ def _character_creator(spec: _Spec, root: str | None) -> None:
     spec.add("CC_Base_FacialBone", "CC_Base_Head", _point("skull"), aim="CC_Base_JawRoot")
     spec.add("CC_Base_JawRoot", "CC_Base_FacialBone", _point("jaw"), end=_point("chin"))
     for s in _SIDES:
-        p = lambda n: _point(n, s.sign)  # noqa: E731
+        p = s.point
         spec.add(f"CC_Base_{s.letter}_Eye", "CC_Base_FacialBone", p("eye"), end=p("eye") + [0.02, 0.0, 0.0])
     for s in _SIDES:
-        p = lambda n: _point(n, s.sign)  # noqa: E731
+        p = s.point
         b = f"CC_Base_{s.letter}_"
         spec.chain("CC_Base_Spine02", [(b + "Clavicle", p("clavicle")), (b + "Upperarm", p("shoulder")),
                                        (b + "Forearm", p("elbow")), (b + "Hand", p("wrist"))])
@@ -213,7 +217,7 @@ def _mixamo(spec: _Spec, root: str | None) -> None:
     m = "mixamorig:"
     spec.add(m + "Hips", root, _point("pelvis"), aim=m + "Spine")
     for s in _SIDES:
-        p = lambda n: _point(n, s.sign)  # noqa: E731
+        p = s.point
         spec.chain(m + "Hips", [(f"{m}{s.word}UpLeg", p("hip")), (f"{m}{s.word}Leg", p("knee")),
                                 (f"{m}{s.word}Foot", p("ankle")), (f"{m}{s.word}ToeBase", p("ball")),
                                 (f"{m}{s.word}Toe_End", p("toe_tip"))])
@@ -221,7 +225,7 @@ def _mixamo(spec: _Spec, root: str | None) -> None:
                             (m + "Neck", _point("neck_base")), (m + "Head", _point("skull")),
                             (m + "HeadTop_End", _point("head_top"))])
     for s in _SIDES:
-        p = lambda n: _point(n, s.sign)  # noqa: E731
+        p = s.point
         a = f"{m}{s.word}"
         spec.chain(m + "Spine2", [(a + "Shoulder", p("clavicle")), (a + "Arm", p("shoulder")),
                                   (a + "ForeArm", p("elbow")), (a + "Hand", p("wrist"))])
@@ -236,13 +240,13 @@ def _mixamo(spec: _Spec, root: str | None) -> None:
 def _unity(spec: _Spec, root: str | None) -> None:
     spec.add("Hips", root, _point("pelvis"), aim="Spine")
     for s in _SIDES:
-        p = lambda n: _point(n, s.sign)  # noqa: E731
+        p = s.point
         spec.chain("Hips", [(f"{s.word}UpperLeg", p("hip")), (f"{s.word}LowerLeg", p("knee")),
                             (f"{s.word}Foot", p("ankle")), (f"{s.word}Toes", p("ball"))], end=p("toe_tip"))
     spec.chain("Hips", [("Spine", _spine(1.06)), ("Chest", _spine(1.18)), ("UpperChest", _spine(1.30)),
                         ("Neck", _point("neck_base")), ("Head", _point("skull"))], end=_point("head_top"))
     for s in _SIDES:
-        p = lambda n: _point(n, s.sign)  # noqa: E731
+        p = s.point
         a = s.word
         spec.chain("UpperChest", [(a + "Shoulder", p("clavicle")), (a + "UpperArm", p("shoulder")),
                                   (a + "LowerArm", p("elbow")), (a + "Hand", p("wrist"))])
@@ -257,7 +261,7 @@ def _unity(spec: _Spec, root: str | None) -> None:
 def _unreal(spec: _Spec, root: str | None) -> None:
     spec.add("pelvis", root, _point("pelvis"), aim="spine_01")
     for s in _SIDES:
-        p = lambda n: _point(n, s.sign)  # noqa: E731
+        p = s.point
         x = s.lower
         spec.chain("pelvis", [(f"thigh_{x}", p("hip")), (f"calf_{x}", p("knee")), (f"foot_{x}", p("ankle")),
                               (f"ball_{x}", p("ball"))], end=p("toe_tip"))
@@ -267,7 +271,7 @@ def _unreal(spec: _Spec, root: str | None) -> None:
                           ("spine_04", _spine(1.29)), ("spine_05", _spine(1.37)), ("neck_01", _point("neck_base")),
                           ("neck_02", _point("neck_mid")), ("head", _point("skull"))], end=_point("head_top"))
     for s in _SIDES:
-        p = lambda n: _point(n, s.sign)  # noqa: E731
+        p = s.point
         x = s.lower
         spec.chain("spine_05", [(f"clavicle_{x}", p("clavicle")), (f"upperarm_{x}", p("shoulder")),
                                 (f"lowerarm_{x}", p("elbow")), (f"hand_{x}", p("wrist"))])
@@ -286,14 +290,14 @@ def _unreal(spec: _Spec, root: str | None) -> None:
 def _smpl(spec: _Spec, root: str | None) -> None:
     spec.add("Pelvis", root, _point("pelvis"), aim="Spine1")
     for s in _SIDES:
-        p = lambda n: _point(n, s.sign)  # noqa: E731
+        p = s.point
         x = s.letter
         spec.chain("Pelvis", [(f"{x}_Hip", p("hip")), (f"{x}_Knee", p("knee")), (f"{x}_Ankle", p("ankle")),
                               (f"{x}_Foot", p("ball"))], end=p("toe_tip"))
     spec.chain("Pelvis", [("Spine1", _spine(1.07)), ("Spine2", _spine(1.20)), ("Spine3", _spine(1.30)),
                           ("Neck", _point("neck_base")), ("Head", _point("skull"))], end=_point("head_top"))
     for s in _SIDES:
-        p = lambda n: _point(n, s.sign)  # noqa: E731
+        p = s.point
         x = s.letter
         spec.chain("Spine3", [(f"{x}_Collar", p("clavicle")), (f"{x}_Shoulder", p("shoulder")),
                               (f"{x}_Elbow", p("elbow")), (f"{x}_Wrist", p("wrist")), (f"{x}_Hand", p("knuckle"))],
@@ -303,7 +307,7 @@ def _smpl(spec: _Spec, root: str | None) -> None:
 def _rigify(spec: _Spec, root: str | None) -> None:
     spec.add("DEF-spine", root, _point("pelvis"), aim="DEF-spine.001")  # the hips bone
     for s in _SIDES:
-        p = lambda n: _point(n, s.sign)  # noqa: E731
+        p = s.point
         x = s.letter
         spec.add(f"DEF-pelvis.{x}", "DEF-spine", p("pelvis") + [0.0, 0.0, 0.0], end=p("pelvis_side"))
         spec.chain("DEF-spine", [(f"DEF-thigh.{x}", p("hip")), (f"DEF-thigh.{x}.001", _lerp(p("hip"), p("knee"), 0.5)),
@@ -314,7 +318,7 @@ def _rigify(spec: _Spec, root: str | None) -> None:
                              ("DEF-spine.005", _point("neck_mid")), ("DEF-spine.006", _point("skull"))],
                end=_point("head_top"))
     for s in _SIDES:
-        p = lambda n: _point(n, s.sign)  # noqa: E731
+        p = s.point
         x = s.letter
         spec.chain("DEF-spine.003", [(f"DEF-shoulder.{x}", p("clavicle")), (f"DEF-upper_arm.{x}", p("shoulder")),
                                      (f"DEF-upper_arm.{x}.001", _lerp(p("shoulder"), p("elbow"), 0.5)),
