@@ -60,6 +60,9 @@ from .quality import GarmentMeter, free_point_depth
 from .transforms import compose, inverse, quat_slerp, yaw_quat
 
 
+SAME_BAND_M = 0.02  # an outer garment's attachment this close to an inner one's is carried as that one is
+
+
 def make_character(rest_pose: SkeletonPose, joint_map: dict[str, str], garments: Sequence[str | GarmentSpec],
                    params: SolverParams, resolution: float = 1.0, *, garment_path: Sequence[str] = (),
                    decimate_to: int | None = None, overrides: BodyOverrides | None = None) -> "DressedCharacter":
@@ -337,7 +340,7 @@ class DressedCharacter:
 
 def _carried_like(mesh: GarmentMesh, inner_meshes: Sequence[GarmentMesh]) -> GarmentMesh:
     """``mesh`` with an attachment that lies on an inner garment's attachment of the same role (a skirt's
-    waistband on the trousers', every vertex within ``REACH_M`` of it) skinned as that one is: two bands
+    waistband on the trousers', every vertex within ``SAME_BAND_M`` of it) skinned as that one is: two bands
     carried differently would part, and the outer one, whose points cannot be pushed, would pass through."""
     shared = dict(mesh.shared_attachments)
     for role, ids in mesh.attachments.items():
@@ -346,7 +349,7 @@ def _carried_like(mesh: GarmentMesh, inner_meshes: Sequence[GarmentMesh]) -> Gar
                 continue
             band = inner.vertices[inner.attachments[role]]
             gaps = np.linalg.norm(mesh.vertices[ids][:, None, :] - band[None, :, :], axis=2).min(axis=1)
-            if np.all(gaps <= REACH_M):
+            if np.all(gaps <= SAME_BAND_M):
                 shared.pop(role, None)
                 if role in inner.shared_attachments:
                     shared[role] = inner.shared_attachments[role]

@@ -35,7 +35,7 @@ from numba import njit
 
 from ..collision.crossing import segment_crosses_triangle
 
-REACH_M = 0.02  # m: an outer point this close over an inner garment's triangle is checked against it
+REACH_M = 0.05  # m: an outer point this close over an inner garment's triangle is checked against it
 _TRACK_DEPTH = 0.15  # m: a point this far behind the triangle it was over has not been pushed through it
 
 
@@ -278,7 +278,7 @@ def _edge_against_triangle(x, v, movable, p0, p1, y, triangles, normals, t, thic
     inner, d = (p0, d0) if d0 < d1 else (p1, d1)
     # a shallow crossing only: an edge straddling a whole fold or tube has both ends outside it, and pushing
     # one across would make it worse
-    if movable[inner] and d >= -reach:
+    if movable[inner] and d >= -_TRACK_DEPTH:
         _push(x, v, inner, normals, t, thickness - d)
         moved += 1
     return moved
