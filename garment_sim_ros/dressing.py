@@ -49,6 +49,7 @@ from .body.pose_buffer import RootMotion, SampleStatus
 from .body.root import root_frame
 from .body.skeleton import SkeletonPose, forward_kinematics
 from .cloth.garments import GarmentMesh
+from .cloth.kernels import keep_where_inside
 from .cloth.layers import REACH_M, InnerSurface
 from .cloth.mesh_check import GarmentMeshError
 from .cloth.model import build_cloth_model
@@ -58,7 +59,6 @@ from .collision.collider import Collider
 from .params import SolverParams
 from .quality import GarmentMeter, free_point_depth
 from .transforms import compose, inverse, quat_slerp, yaw_quat
-
 
 SAME_BAND_M = 0.02  # an outer garment's attachment this close to an inner one's is carried as that one is
 
@@ -189,6 +189,7 @@ class DressedCharacter:
         for row in sorted(rows, key=lambda r: len(self._inner[r])):
             solver = self.solvers[row]
             state = solver.state
+            kept = (state.positions.copy(), state.velocities.copy())
             for inner in self._inner[row]:
                 if inner not in surfaces:
                     surfaces[inner] = InnerSurface(self.solvers[inner].state.positions,
@@ -196,6 +197,12 @@ class DressedCharacter:
                 tracked = self._tracked.setdefault((row, inner), np.full(solver.model.num_points, -1, np.int64))
                 surfaces[inner].separate(state.positions, state.velocities, solver.constants.inv_mass > 0.0,
                                          solver.model.edges, solver.params.layer_thickness, tracked, previous[row])
+            if solver.collider is not None:
+                # The body comes first: a point pushed off an inner garment into a volume (a forearm lying on
+                # the trousers at the hip) goes back to where the body's handling left it.
+                deeper = solver.collider.penetration_depths(state.positions) - solver.collider.penetration_depths(
+                    kept[0])
+                keep_where_inside(state.positions, state.velocities, *kept, deeper - 1e-6)
 
     def layer_crossings(self) -> list[int]:
         """Per garment, how many of its edges cross a triangle of a garment worn under it (0 for the

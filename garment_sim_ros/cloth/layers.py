@@ -33,9 +33,10 @@ import math
 import numpy as np
 from numba import njit
 
-from ..collision.crossing import segment_crosses_triangle
+from ..collision.crossing import segment_crosses_triangle, segment_misses_triangle_box
 
 REACH_M = 0.05  # m: an outer point this close over an inner garment's triangle is checked against it
+SWEEPS = 3  # separate's passes run again while they move a point, at most this many times
 _TRACK_DEPTH = 0.15  # m: a point this far behind the triangle it was over has not been pushed through it
 
 
@@ -160,13 +161,14 @@ def _closest_between_segments(x, p0, p1, y, q0, q1):
 
 
 @njit(cache=True)
-def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, thickness, reach, origin, dims, cell,
-             starts, entries, tracked):
+def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, radii, thickness, reach, origin, dims,
+             cell, starts, entries, tracked):
     """Keep the outer garment's points ``x`` (N, 3) (velocities ``v``, both changed in place; ``movable``
-    (N,) bool) ``thickness`` outside the inner garment's triangles (T, 3) of ``y`` (M, 3), unit
-    ``normals`` (T, 3); see the module docstring. ``x_prev`` (N, 3) the points at the frame's start (used
-    when ``use_path``), ``edges`` (E, 2) the outer garment's structural edges, ``tracked`` (N,) the inner
-    triangle each point was over at the last call (-1: none), updated. Returns how many pushes were made."""
+    (N,) bool) ``thickness`` outside the inner garment's triangles (T, 3) of ``y`` (M, 3), unit ``normals``
+    (T, 3) and ``radii`` (T,) (farthest corner from the centroid, m); see the module docstring. ``x_prev``
+    (N, 3) the points at the frame's start (used when ``use_path``), ``edges`` (E, 2) the outer garment's
+    structural edges, ``tracked`` (N,) the inner triangle each point was over at the last call (-1: none),
+    updated. Returns how many pushes were made."""
     moved = 0
     n = x.shape[0]
     # 1. paths through a triangle from its outer side
@@ -189,6 +191,9 @@ def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, thic
                             # from the outer side to the inner side only
                             if dx * normals[t, 0] + dy * normals[t, 1] + dz * normals[t, 2] >= 0.0:
                                 continue
+                            if segment_misses_triangle_box(y, triangles[t, 0], triangles[t, 1], triangles[t, 2],
+                                                           px, py, pz, x[i, 0], x[i, 1], x[i, 2]):
+                                continue
                             hit, s, _, _ = segment_crosses_triangle(px, py, pz, dx, dy, dz, y, triangles[t, 0],
                                                                     triangles[t, 1], triangles[t, 2])
                             if hit and s < best_s:
@@ -205,12 +210,12 @@ def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, thic
         if t >= 0:
             a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
             d = _height(x, i, y, a, normals, t)
-            # laterally within half a cell of the triangle's centroid (it may have slid off its edge a little)
+            # laterally within 1.5 times the triangle's radius of its centroid (it may have slid off its edge a little)
             gx = x[i, 0] - (y[a, 0] + y[b, 0] + y[c, 0]) / 3.0
             gy = x[i, 1] - (y[a, 1] + y[b, 1] + y[c, 1]) / 3.0
             gz = x[i, 2] - (y[a, 2] + y[b, 2] + y[c, 2]) / 3.0
             lateral2 = gx * gx + gy * gy + gz * gz - d * d
-            if -_TRACK_DEPTH < d < thickness and lateral2 < 0.25 * cell * cell:
+            if -_TRACK_DEPTH < d < thickness and lateral2 < 2.25 * radii[t] * radii[t]:
                 _push(x, v, i, normals, t, thickness - d)
                 moved += 1
         tracked[i] = -1
@@ -243,9 +248,22 @@ def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, thic
                     key = (ci * dims[1] + cj) * dims[2] + ck
                     for e in range(starts[key], starts[key + 1]):
                         t = entries[e]
+                        if _apart(x, p0, p1, y, triangles, t, thickness):
+                            continue  # most triangles of a cell are nowhere near the edge
                         moved += _edge_against_triangle(x, v, movable, p0, p1, y, triangles, normals, t, thickness,
                                                         reach)
     return moved
+
+
+@njit(cache=True, inline="always")
+def _apart(x, p0, p1, y, triangles, t, pad):
+    """True when the boxes of edge (p0, p1) of ``x`` and triangle t of ``y``, grown by ``pad`` m, are apart."""
+    a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+    for k in range(3):
+        if (max(y[a, k], y[b, k], y[c, k]) < min(x[p0, k], x[p1, k]) - pad
+                or min(y[a, k], y[b, k], y[c, k]) > max(x[p0, k], x[p1, k]) + pad):
+            return True
+    return False
 
 
 @njit(cache=True, inline="always")
@@ -303,8 +321,10 @@ def count_edges_through(x, edges, y, triangles, origin, dims, cell, starts, entr
                     key = (ci * dims[1] + cj) * dims[2] + ck
                     for e in range(starts[key], starts[key + 1]):
                         t = entries[e]
-                        if segment_crosses_triangle(px, py, pz, dx, dy, dz, y, triangles[t, 0], triangles[t, 1],
-                                                    triangles[t, 2])[0]:
+                        a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+                        if segment_misses_triangle_box(y, a, b, c, px, py, pz, x[p1, 0], x[p1, 1], x[p1, 2]):
+                            continue
+                        if segment_crosses_triangle(px, py, pz, dx, dy, dz, y, a, b, c)[0]:
                             crossed = True
                             break
                     if crossed:
@@ -327,8 +347,11 @@ class InnerSurface:
         self.normals = np.empty((len(self.triangles), 3))
         triangle_normals(self.positions, self.triangles, self.normals)
         p = self.positions[self.triangles]
-        # a cell as large as the largest triangle plus the reach: a point's own cell holds what is near it
-        self.cell = float(np.max(np.linalg.norm(p - p.mean(axis=1, keepdims=True), axis=2))) * 2.0 + reach
+        # (T,) m: each triangle's farthest corner from its centroid
+        self.radii = np.ascontiguousarray(np.linalg.norm(p - p.mean(axis=1, keepdims=True), axis=2).max(axis=1))
+        # a triangle sits in every cell its box grown by the reach touches, so a point's own cell holds what is
+        # near it whatever the cell's size: a typical triangle's, so a cell holds few
+        self.cell = 2.0 * float(np.median(self.radii)) + reach
         self.reach = reach
         self.origin, self.dims, self.starts, self.entries = build_grid(self.positions, self.triangles, reach,
                                                                        self.cell)
@@ -338,10 +361,17 @@ class InnerSurface:
         """``x``, ``v`` (N, 3) float64 changed in place; ``movable`` (N,) bool; ``edges`` (E, 2) the outer
         garment's; ``tracked`` (N,) int64, updated; ``x_prev`` (N, 3) the frame's start (None: no path
         pass). Returns how many pushes were made."""
-        return int(separate(x, v, movable, x if x_prev is None else x_prev, x_prev is not None,
-                            np.ascontiguousarray(edges, dtype=np.int64), self.positions, self.triangles, self.normals,
-                            float(thickness), self.reach, self.origin, self.dims, self.cell, self.starts,
-                            self.entries, tracked))
+        edges = np.ascontiguousarray(edges, dtype=np.int64)
+        pushes = 0
+        for sweep in range(SWEEPS):  # a push out of one triangle can put a point into its neighbour in a crease
+            moved = int(separate(x, v, movable, x if x_prev is None else x_prev, sweep == 0 and x_prev is not None,
+                                 edges, self.positions, self.triangles, self.normals, self.radii, float(thickness),
+                                 self.reach,
+                                 self.origin, self.dims, self.cell, self.starts, self.entries, tracked))
+            pushes += moved
+            if moved == 0:
+                break
+        return pushes
 
     def edges_through(self, x: np.ndarray, edges: np.ndarray) -> int:
         """How many edges (E, 2) of points ``x`` (N, 3) cross one of these triangles."""

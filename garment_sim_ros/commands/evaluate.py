@@ -78,24 +78,12 @@ def _numbers(option: str, text: str) -> list[float]:
     return values
 
 
-def parse_outfits(text: str) -> list[str]:
-    """``--garments``: comma-separated runs, each a garment or an outfit of garments joined by ``+``, each
-    garment checked to name a built-in or a valid spec (``SpecError`` if not); ``all``: the built-ins."""
-    from ..cloth.spec import SpecError, parse_garment_list
-
-    if text.strip() == "all":
-        return list(GARMENT_NAMES)
-    outfits = [entry.strip() for entry in text.split(",") if entry.strip()]
-    if not outfits:
-        raise SpecError(f"--garments: no garment in {text!r}")
-    for outfit in outfits:
-        parse_garment_list(outfit.replace("+", ","))  # each valid, none twice in one outfit
-    return ["+".join(g.strip() for g in outfit.split("+") if g.strip()) for outfit in outfits]
-
-
 def plan(args) -> list[Run]:
     """The runs the arguments ask for, clip by clip, then garment (or outfit), speed, frame rate."""
-    garments = parse_outfits(args.garments)
+    from .simulate import parse_outfits
+
+    garments = (list(GARMENT_NAMES) if args.garments.strip() == "all"
+                else ["+".join(outfit) for outfit in parse_outfits(args.garments)])
     speeds, rates = _numbers("--speeds", args.speeds), _numbers("--fps", args.fps)
     if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
         raise ValueError(f"--duration must be > 0, got {args.duration}")
