@@ -37,7 +37,7 @@ from ..collision.crossing import segment_crosses_triangle, segment_misses_triang
 
 REACH_M = 0.05  # m: an outer point this close over an inner garment's triangle is checked against it
 SWEEPS = 3  # separate's passes run again while they move a point, at most this many times
-_TRACK_DEPTH = 0.15  # m: a point this far behind the triangle it was over has not been pushed through it
+_TRACK_DEPTH = 0.05  # m: a point this far behind the triangle it was over has not been pushed through it
 
 
 @njit(cache=True)
