@@ -104,6 +104,27 @@ def _cell_range(lo_p, hi_p, origin, dims, cell, axis):
 
 
 @njit(cache=True, inline="always")
+def _near_segment(px, py, pz, qx, qy, qz, origin, dims, cell, starts, entries, stamp, query, found):
+    """The triangles binned in the cells the box of segment p -> q touches, each once, written to ``found``
+    (T,); returns how many. ``stamp`` (T,) holds the last query that found each triangle; ``query`` is new."""
+    count = 0
+    i0, i1 = _cell_range(min(px, qx), max(px, qx), origin, dims, cell, 0)
+    j0, j1 = _cell_range(min(py, qy), max(py, qy), origin, dims, cell, 1)
+    k0, k1 = _cell_range(min(pz, qz), max(pz, qz), origin, dims, cell, 2)
+    for ci in range(i0, i1):
+        for cj in range(j0, j1):
+            for ck in range(k0, k1):
+                key = (ci * dims[1] + cj) * dims[2] + ck
+                for e in range(starts[key], starts[key + 1]):
+                    t = entries[e]
+                    if stamp[t] != query:
+                        stamp[t] = query
+                        found[count] = t
+                        count += 1
+    return count
+
+
+@njit(cache=True, inline="always")
 def _over(px, py, pz, y, a, b, c, nx, ny, nz):
     """Whether the point's projection on the triangle's plane is inside the triangle (edges included)."""
     for (i, j) in ((a, b), (b, c), (c, a)):
@@ -171,6 +192,9 @@ def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, radi
     updated. Returns how many pushes were made."""
     moved = 0
     n = x.shape[0]
+    stamp = np.full(triangles.shape[0], -1, dtype=np.int64)
+    found = np.empty(triangles.shape[0], dtype=np.int64)
+    query = 0
     # 1. paths through a triangle from its outer side
     if use_path:
         for i in range(n):
@@ -179,25 +203,19 @@ def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, radi
             px, py, pz = x_prev[i, 0], x_prev[i, 1], x_prev[i, 2]
             dx, dy, dz = x[i, 0] - px, x[i, 1] - py, x[i, 2] - pz
             best_s, best_t = 2.0, -1
-            i0, i1 = _cell_range(min(px, x[i, 0]), max(px, x[i, 0]), origin, dims, cell, 0)
-            j0, j1 = _cell_range(min(py, x[i, 1]), max(py, x[i, 1]), origin, dims, cell, 1)
-            k0, k1 = _cell_range(min(pz, x[i, 2]), max(pz, x[i, 2]), origin, dims, cell, 2)
-            for ci in range(i0, i1):
-                for cj in range(j0, j1):
-                    for ck in range(k0, k1):
-                        key = (ci * dims[1] + cj) * dims[2] + ck
-                        for e in range(starts[key], starts[key + 1]):
-                            t = entries[e]
-                            # from the outer side to the inner side only
-                            if dx * normals[t, 0] + dy * normals[t, 1] + dz * normals[t, 2] >= 0.0:
-                                continue
-                            if segment_misses_triangle_box(y, triangles[t, 0], triangles[t, 1], triangles[t, 2],
-                                                           px, py, pz, x[i, 0], x[i, 1], x[i, 2]):
-                                continue
-                            hit, s, _, _ = segment_crosses_triangle(px, py, pz, dx, dy, dz, y, triangles[t, 0],
-                                                                    triangles[t, 1], triangles[t, 2])
-                            if hit and s < best_s:
-                                best_s, best_t = s, t
+            query += 1
+            for m in range(_near_segment(px, py, pz, x[i, 0], x[i, 1], x[i, 2], origin, dims, cell, starts, entries,
+                                         stamp, query, found)):
+                t = found[m]
+                # from the outer side to the inner side only
+                if dx * normals[t, 0] + dy * normals[t, 1] + dz * normals[t, 2] >= 0.0:
+                    continue
+                a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+                if segment_misses_triangle_box(y, a, b, c, px, py, pz, x[i, 0], x[i, 1], x[i, 2]):
+                    continue
+                hit, s, _, _ = segment_crosses_triangle(px, py, pz, dx, dy, dz, y, a, b, c)
+                if hit and s < best_s:
+                    best_s, best_t = s, t
             if best_t >= 0:
                 d = _height(x, i, y, triangles[best_t, 0], normals, best_t)  # < 0: how far through
                 _push(x, v, i, normals, best_t, thickness - d)
@@ -239,19 +257,13 @@ def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, radi
     # 3. edge-edge proximity and 4. edges through a triangle
     for k in range(edges.shape[0]):
         p0, p1 = edges[k, 0], edges[k, 1]
-        i0, i1 = _cell_range(min(x[p0, 0], x[p1, 0]), max(x[p0, 0], x[p1, 0]), origin, dims, cell, 0)
-        j0, j1 = _cell_range(min(x[p0, 1], x[p1, 1]), max(x[p0, 1], x[p1, 1]), origin, dims, cell, 1)
-        k0, k1 = _cell_range(min(x[p0, 2], x[p1, 2]), max(x[p0, 2], x[p1, 2]), origin, dims, cell, 2)
-        for ci in range(i0, i1):
-            for cj in range(j0, j1):
-                for ck in range(k0, k1):
-                    key = (ci * dims[1] + cj) * dims[2] + ck
-                    for e in range(starts[key], starts[key + 1]):
-                        t = entries[e]
-                        if _apart(x, p0, p1, y, triangles, t, thickness):
-                            continue  # most triangles of a cell are nowhere near the edge
-                        moved += _edge_against_triangle(x, v, movable, p0, p1, y, triangles, normals, t, thickness,
-                                                        reach)
+        query += 1
+        for m in range(_near_segment(x[p0, 0], x[p0, 1], x[p0, 2], x[p1, 0], x[p1, 1], x[p1, 2], origin, dims, cell,
+                                     starts, entries, stamp, query, found)):
+            t = found[m]
+            if _apart(x, p0, p1, y, triangles, t, thickness):
+                continue  # most triangles of a cell are nowhere near the edge
+            moved += _edge_against_triangle(x, v, movable, p0, p1, y, triangles, normals, t, thickness, reach)
     return moved
 
 
@@ -307,33 +319,19 @@ def count_edges_through(x, edges, y, triangles, origin, dims, cell, starts, entr
     """How many edges (E, 2) of points ``x`` (N, 3) cross a triangle (T, 3) of points ``y`` (M, 3), through
     the grid of ``build_grid`` (a segment through a triangle's edge or vertex crosses, as for the bones)."""
     count = 0
+    stamp = np.full(triangles.shape[0], -1, dtype=np.int64)
+    found = np.empty(triangles.shape[0], dtype=np.int64)
     for k in range(edges.shape[0]):
         p0, p1 = edges[k, 0], edges[k, 1]
         px, py, pz = x[p0, 0], x[p0, 1], x[p0, 2]
-        dx, dy, dz = x[p1, 0] - px, x[p1, 1] - py, x[p1, 2] - pz
-        i0, i1 = _cell_range(min(px, x[p1, 0]), max(px, x[p1, 0]), origin, dims, cell, 0)
-        j0, j1 = _cell_range(min(py, x[p1, 1]), max(py, x[p1, 1]), origin, dims, cell, 1)
-        k0, k1 = _cell_range(min(pz, x[p1, 2]), max(pz, x[p1, 2]), origin, dims, cell, 2)
-        crossed = False
-        for ci in range(i0, i1):
-            for cj in range(j0, j1):
-                for ck in range(k0, k1):
-                    key = (ci * dims[1] + cj) * dims[2] + ck
-                    for e in range(starts[key], starts[key + 1]):
-                        t = entries[e]
-                        a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-                        if segment_misses_triangle_box(y, a, b, c, px, py, pz, x[p1, 0], x[p1, 1], x[p1, 2]):
-                            continue
-                        if segment_crosses_triangle(px, py, pz, dx, dy, dz, y, a, b, c)[0]:
-                            crossed = True
-                            break
-                    if crossed:
-                        break
-                if crossed:
-                    break
-            if crossed:
+        qx, qy, qz = x[p1, 0], x[p1, 1], x[p1, 2]
+        for m in range(_near_segment(px, py, pz, qx, qy, qz, origin, dims, cell, starts, entries, stamp, k, found)):
+            a, b, c = triangles[found[m], 0], triangles[found[m], 1], triangles[found[m], 2]
+            if segment_misses_triangle_box(y, a, b, c, px, py, pz, qx, qy, qz):
+                continue
+            if segment_crosses_triangle(px, py, pz, qx - px, qy - py, qz - pz, y, a, b, c)[0]:
+                count += 1
                 break
-        count += crossed
     return count
 
 
