@@ -36,6 +36,7 @@ from numba import njit
 from ..collision.crossing import segment_crosses_triangle, segment_misses_triangle_box
 
 REACH_M = 0.05  # m: an outer point this close over an inner garment's triangle is checked against it
+_SETTLED = 1e-6  # m: a point this close to the thickness is where it belongs (no sweep for rounding)
 SWEEPS = 3  # separate's passes run again while they move a point, at most this many times
 _TRACK_DEPTH = 0.05  # m: a point this far behind the triangle it was over has not been pushed through it
 
@@ -233,7 +234,7 @@ def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, radi
             gy = x[i, 1] - (y[a, 1] + y[b, 1] + y[c, 1]) / 3.0
             gz = x[i, 2] - (y[a, 2] + y[b, 2] + y[c, 2]) / 3.0
             lateral2 = gx * gx + gy * gy + gz * gz - d * d
-            if -_TRACK_DEPTH < d < thickness and lateral2 < 2.25 * radii[t] * radii[t]:
+            if -_TRACK_DEPTH < d < thickness - _SETTLED and lateral2 < 2.25 * radii[t] * radii[t]:
                 _push(x, v, i, normals, t, thickness - d)
                 moved += 1
         tracked[i] = -1
@@ -250,7 +251,7 @@ def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, radi
             d = _height(x, i, y, a, normals, t)
             if abs(d) < abs(best_d) and _over(px, py, pz, y, a, b, c, normals[t, 0], normals[t, 1], normals[t, 2]):
                 best_d, best_t = d, t
-        if best_t >= 0 and best_d < thickness:
+        if best_t >= 0 and best_d < thickness - _SETTLED:
             _push(x, v, i, normals, best_t, thickness - best_d)
             moved += 1
         tracked[i] = best_t
@@ -288,7 +289,7 @@ def _edge_against_triangle(x, v, movable, p0, p1, y, triangles, normals, t, thic
         if distance >= thickness or not (0.0 < s < 1.0 and 0.0 < r < 1.0):
             continue  # an end or a corner is the points' pass's
         d = ((1.0 - s) * _height(x, p0, y, a, normals, t) + s * _height(x, p1, y, a, normals, t))
-        if not -reach < d < thickness:
+        if not -reach < d < thickness - _SETTLED:
             continue
         w0 = (1.0 - s) if movable[p0] else 0.0
         w1 = s if movable[p1] else 0.0
