@@ -31,7 +31,8 @@ from garment_sim_ros.body.pose_buffer import PoseBuffer, SampleStatus
 from garment_sim_ros.cloth.solver import GarmentSolver
 from garment_sim_ros.params import DEFAULT_PARAMS
 from garment_sim_ros.ros.diagnostics import level_and_message
-from garment_sim_ros.runtime.character_loop import BONE_CHECK_S, CLOCK_JUMP_BACK_S, CharacterLoop, Status
+from garment_sim_ros.runtime.character_loop import CLOCK_JUMP_BACK_S, CharacterLoop, Status
+from garment_sim_ros.runtime.skeleton_setup import BONE_CHECK_S
 from garment_sim_ros.runtime.tf_input import seconds_to_stamp
 
 FRAME = 1.0 / 60.0
@@ -385,7 +386,7 @@ def test_a_frame_time_that_goes_back_a_little_is_folded_into_the_next_counted_no
     lines said "frame time ... is not after the last frame's")."""
     logged = []
     loop, t = running_loop()
-    loop.logger = type("Logger", (), {level: lambda self, m, level=level: logged.append((level, m))
+    loop.events.logger = type("Logger", (), {level: lambda self, m, level=level: logged.append((level, m))
                                       for level in ("info", "warning", "error")})()
     feed(loop.buffer, t)
     assert loop.frame(t) is not None
