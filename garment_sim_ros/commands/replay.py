@@ -128,10 +128,10 @@ class Replay:
 
     def run(self) -> dict:
         """Every frame from the bag's first message to its last; returns the summary."""
-        from ..markers import frame_markers
         from ..rerun_log import frame_payload
         from ..runtime.bag_io import BagError, read_transforms
         from ..runtime.marker_cdr import serialize_marker_array
+        from ..runtime.markers import frame_markers
         from ..runtime.tf_input import seconds_to_stamp
 
         v = self.values
