@@ -32,26 +32,22 @@ class JumpHold:
     """Each child's unconfirmed jump, held until its next sample settles it; counts into the buffer's
     ``adjusted`` (``jump_confirmed``) and ``rejected`` (``root_outlier``) counters."""
 
-    def __init__(self, jump_distance_m: float, adjusted: Counter[str], rejected: Counter[str]):
-        self.jump_distance_m = jump_distance_m
+    def __init__(self, adjusted: Counter[str], rejected: Counter[str]):
         self._adjusted = adjusted
         self._rejected = rejected
-        self._held: dict[str, tuple[float, list[float], list[float]]] = {}  # a jump's first sample, by child
-
-    def __contains__(self, child: str) -> bool:
-        return child in self._held
+        self.held: dict[str, tuple[float, list[float], list[float]]] = {}  # a jump's first sample, by child
 
     def forget(self, child: str) -> None:
-        self._held.pop(child, None)
+        self.held.pop(child, None)
 
     def holds(self, child: str, series: SampleSeries, stamp_s: float, position: list[float],
-              rotation: list[float]) -> bool:
+              rotation: list[float], jump_distance_m: float) -> bool:
         """Settle the child's unconfirmed jump with this sample (confirmed, or dropped as an outlier);
         True when this sample is itself a jump, held until the next one."""
-        held = self._held.get(child)
+        held = self.held.get(child)
         if held is not None and stamp_s > held[0]:
-            del self._held[child]
-            if math.dist(position, held[1]) <= self.jump_distance_m:
+            del self.held[child]
+            if math.dist(position, held[1]) <= jump_distance_m:
                 series.clear()  # the place before the jump is another: no interpolation or kinematics across it
                 series.insert(*held)
                 self._adjusted["jump_confirmed"] += 1
@@ -59,7 +55,7 @@ class JumpHold:
             self._rejected["root_outlier"] += 1
         if len(series) == 0 or stamp_s <= series.newest:
             return False
-        if is_jump(math.dist(position, series.translations[-1]), stamp_s - series.newest, self.jump_distance_m):
-            self._held[child] = (stamp_s, position, rotation)
+        if is_jump(math.dist(position, series.translations[-1]), stamp_s - series.newest, jump_distance_m):
+            self.held[child] = (stamp_s, position, rotation)
             return True
         return False

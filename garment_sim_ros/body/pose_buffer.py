@@ -100,21 +100,13 @@ class PoseBuffer:
         self.kinematics_window_s = float(kinematics_window_s)
         self.max_frames = int(max_frames)
         self.max_lead_s = float(max_lead_s)
+        self.jump_distance_m = float(jump_distance_m)  # a root sample farther than this, and too fast, jumped
         self.rejected: Counter[str] = Counter()
         self.adjusted: Counter[str] = Counter()
-        self._jumps = JumpHold(float(jump_distance_m), self.adjusted, self.rejected)
+        self._jumps = JumpHold(self.adjusted, self.rejected)
         self._parent: dict[str, str] = {}
         self._static: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._dynamic: dict[str, SampleSeries] = {}
-
-    @property
-    def jump_distance_m(self) -> float:
-        """A root sample farther than this (m) from the newest, and too fast, jumped (``body.jumps``)."""
-        return self._jumps.jump_distance_m
-
-    @jump_distance_m.setter
-    def jump_distance_m(self, value: float) -> None:
-        self._jumps.jump_distance_m = float(value)
 
     # ------------------------------------------------------------------ input
 
@@ -172,7 +164,7 @@ class PoseBuffer:
             return self._reject("too_old", parent, child, f"stamp {stamp_s} is more than max_duration_s "
                                 f"({self.max_duration_s} s) behind the newest, {series.stamps[-1]}")
         rotation = [v / norm for v in rotation]
-        if self._jumps.holds(child, series, stamp_s, position, rotation):
+        if self._jumps.holds(child, series, stamp_s, position, rotation, self.jump_distance_m):
             return None
         outcome = series.insert(stamp_s, position, rotation)
         if outcome == "inserted":
@@ -210,11 +202,12 @@ class PoseBuffer:
         distance = np.linalg.norm(translations - translations[previous], axis=1)
         jumped = is_jump(distance, stamps - stamps[previous], self.jump_distance_m).tolist()
         stored, refusals, slow = 0, [], []
+        held = self._jumps.held  # children with an unconfirmed jump
         for child, index in rows.items():
             series = self._dynamic.get(child)
             parent = parents[index[0]]
             if (series is None or self._parent.get(child) != parent or child in self._static
-                    or child in self._jumps):
+                    or child in held):
                 slow.extend(index)
                 continue
             block = [stamp_list[i] for i in index]  # Python scalars: cheaper than numpy for a few rows
