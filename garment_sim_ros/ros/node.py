@@ -83,8 +83,9 @@ class GarmentSimNode(Node):
     def __init__(self, node_name: str = NODE_NAME, *, params_file_hint: str = "", **kwargs):
         super().__init__(node_name, **kwargs)
         self._events = EventLog(self.get_logger())
-        self.values: dict[str, Any] = NodeParameters(self, self._on_parameters_accepted).declare(
-            kwargs.get("parameter_overrides") or ())
+        self.parameter_checks = NodeParameters(self, kwargs.get("parameter_overrides") or (),
+                                               self._on_parameters_accepted)
+        self.values: dict[str, Any] = self.parameter_checks.values
         self.solver_params: SolverParams = solver_params(self.values)
         v = self.values
         try:

@@ -10,7 +10,7 @@ the table's units and allowed values: a value ``_prepare`` refuses is passed on 
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.exceptions import (
@@ -34,19 +34,18 @@ class UndeclaredParameters(ParameterNotDeclaredException):
 
 
 class NodeParameters:
-    """Declares every table row on ``node``; ``values`` holds them checked (name -> value). A set the
-    tables accept updates ``values`` and calls ``on_accepted(changes)``."""
+    """Every table row declared on ``node``; ``values`` holds them checked (name -> value). A set the
+    tables accept updates ``values`` and calls ``on_accepted(changes)``.
 
-    def __init__(self, node: Node, on_accepted: Callable[[dict[str, Any]], None]):
+    Start-up values (--params-file, -p; ``overrides``, the node's ``parameter_overrides``) are checked
+    by ``_check`` like runtime ones: a refused one is logged and the default used."""
+
+    def __init__(self, node: Node, overrides: Sequence[Parameter], on_accepted: Callable[[dict[str, Any]], None]):
         self.node = node
         self.on_accepted = on_accepted
         self._refusals: dict[str, str] = {}  # parameter -> the tables' reason, from _prepare for _check
         self.values: dict[str, Any] = {}
-
-    def declare(self, overrides) -> dict[str, Any]:
-        """Declare every table row; start-up values (--params-file, -p; ``overrides``) are checked by
-        ``_check`` like runtime ones: a refused one is logged and the default used."""
-        node, logger = self.node, self.node.get_logger()
+        logger = node.get_logger()
         node.add_on_set_parameters_callback(self._check)
         for row in ALL_PARAMETERS:
             try:
@@ -61,7 +60,6 @@ class NodeParameters:
                            f"{', '.join(PARAMETER_ROWS)}")
         node.add_pre_set_parameters_callback(self._prepare)
         node.add_post_set_parameters_callback(self._accepted)
-        return self.values
 
     def _prepare(self, parameters: list[Parameter]) -> list[Parameter]:
         """Pre-set: each parameter typed as declared (an integer for a real number is that number), or,
