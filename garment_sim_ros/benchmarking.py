@@ -65,9 +65,9 @@ def character_benchmark(garment: str, params: SolverParams, frame_s: float, fram
                         resolution: float = 1.0, rerun: bool = True, gait: str = "walk") -> dict:
     """Dress the procedural character (``gait``) in ``garment`` at ``resolution`` and time ``frames``
     frames of ``frame_s`` seconds after ``warmup`` untimed ones. Returns the per-frame medians."""
-    from .markers import frame_markers
     from .rerun_log import RerunLogger, frame_payload
     from .runtime.marker_cdr import serialize_marker_array
+    from .runtime.markers import frame_markers
     from .runtime.tf_input import seconds_to_stamp
 
     if frames < 1 or warmup < 0:

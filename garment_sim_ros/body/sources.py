@@ -13,8 +13,8 @@ from typing import Callable
 
 import numpy as np
 
-from .pose_buffer import RootMotion, SampleStatus
 from .root import fit_root_kinematics, root_frame
+from .samples import RootMotion, SampleStatus
 from .skeleton import Skeleton, SkeletonPose
 
 GAITS = ("walk", "run", "fast")
