@@ -46,7 +46,9 @@ class Collider:
         self.cache_size = int(cache_size)
         n_volumes = len(volumes)
         self.arrays = VolumeArrays.at_rest(volumes)  # the kernels' view; poses at the substep's ends
-        self._unbounded = self.arrays.unbounded()  # the same poses, every broad-phase test passing
+        # as the kernels take them from Python (a plain tuple: see ``collision.kernels``); and with every
+        # broad-phase test passing, the same poses
+        self._packed, self._packed_unbounded = tuple(self.arrays), tuple(self.arrays.unbounded())
         # frame poses (quaternions), interpolated per substep into the arrays' matrices
         self._frame_pos = np.zeros((2, n_volumes, 3))
         self._frame_quat = np.zeros((2, n_volumes, 4))
@@ -58,6 +60,7 @@ class Collider:
         self.parallel = bool(parallel)
         self._checked_edges = None  # the last edge array handle_edges validated
         self._checked_triangles = None  # the last triangle array handle_axes validated
+        self._checked_contacts = None  # the last contact cache validated
         self._corners = np.zeros((3, 3))  # handle_axes' scratch
         self.use_broad_phase = True  # off only to check that it changes nothing
         self.static_hits = 0
@@ -113,6 +116,8 @@ class Collider:
         broad_phase.substep_motion(vol.pos0, vol.rot0, vol.pos1, vol.rot1, vol.displacement, vol.chord)
 
     # ------------------------------------------------------------------ handling
+    # Each public call checks its arguments, then runs its kernel (``_points``, ``_contacts``, ``_edges``,
+    # ``_axes``); ``resolve_substep`` checks once for its up to nine kernel calls.
     def resolve_substep(self, x_start, x, v, inv_mass, h: float, contacts, edges, edge_rest, triangles) -> None:
         """Full collision handling of a substep's end (memo §3 step 5, and beyond it edges and bones),
         with its retry policy: every point against every volume; then triangles a limb bone passes
@@ -122,13 +127,17 @@ class Collider:
         every volume once more, and the bones last, so that a pinch ends with the cloth on its side
         of the bone (``collision.crossing``). Points (N, 3) m, velocities m/s, ``h`` s; ``contacts``
         as ``new_contacts`` makes it; ``edges`` (E, 2) with ``edge_rest`` (E,) m; ``triangles`` (T, 3)."""
-        self.handle_all(x_start, x, v, inv_mass, h, contacts)
-        crossed = self.handle_axes(x_start, x, v, inv_mass, h, triangles)
-        if self.handle_edges(x_start, x, inv_mass, edges, edge_rest) or crossed:
-            self.handle_contacts(x_start, x, v, inv_mass, h, contacts)
-            self.handle_edges(x_start, x, inv_mass, edges, edge_rest)
-            self.handle_all(x_start, x, v, inv_mass, h, contacts)
-            self.handle_axes(x_start, x, v, inv_mass, h, triangles)
+        self._check_points(x_start, x, v, inv_mass, h, contacts)
+        edges, edge_rest = self._check_edges(edges, edge_rest)
+        self._check_triangles(triangles)
+        h = float(h)
+        self._points(x_start, x, v, inv_mass, h, contacts)
+        crossed = self._axes(x_start, x, v, inv_mass, h, triangles)
+        if self._edges(x_start, x, inv_mass, edges, edge_rest) or crossed:
+            self._contacts(x_start, x, v, inv_mass, h, contacts, self._mode)
+            self._edges(x_start, x, inv_mass, edges, edge_rest)
+            self._points(x_start, x, v, inv_mass, h, contacts)
+            self._axes(x_start, x, v, inv_mass, h, triangles)
 
     def handle_contacts(self, x_start, x, v, inv_mass, h: float, contacts) -> None:
         """Handling of the cached (in-contact) pairs, ``contacts``, at the substep-end poses (memo §3 step 4).
@@ -138,36 +147,16 @@ class Collider:
         correction pulled deep into a thin limb goes back out on the side it came from. ``h`` (s), the
         substep's length, gives the surface's velocity.
         """
-        self._check_points(x, v, inv_mass, contacts)
-        if x_start is None:
-            x_start, mode = x, MODE_STATIC
-        elif not isinstance(x_start, np.ndarray) or x_start.shape != x.shape or x_start.dtype != np.float64:
-            raise ValueError(f"Collider.handle_contacts: x_start must be a float64 array of shape {x.shape}")
-        else:
-            mode = self._mode
-        kernel = kernels.handle_contacts_parallel if self.parallel else kernels.handle_contacts
-        self.static_hits += int(kernel(self.arrays, x_start, x, v, inv_mass, float(h), self._eps, self._friction,
-                                       self._switch_ratio, mode, contacts))
+        static = x_start is None
+        self._check_points(x if static else x_start, x, v, inv_mass, h, contacts)
+        self._contacts(x if static else x_start, x, v, inv_mass, float(h), contacts,
+                       MODE_STATIC if static else self._mode)
 
     def handle_all(self, x_start, x, v, inv_mass, h: float, contacts) -> None:
         """Every point against every volume, adaptive static/dynamic (memo §3 step 5, §6.2); ``contacts``
         (``new_contacts``) is read first and rewritten with what the points now touch."""
-        self._check_points(x, v, inv_mass, contacts)
-        if not isinstance(x_start, np.ndarray) or x_start.shape != x.shape or x_start.dtype != np.float64:
-            raise ValueError(f"Collider.handle_all: x_start must be a float64 array of shape {x.shape}")
-        if not h > 0.0:
-            raise ValueError(f"Collider.handle_all: the substep length h must be > 0 s, got {h!r}")
-        if self.use_broad_phase:
-            vol = self.arrays
-            broad_phase.reach_radii(vol, x_start, x, inv_mass)
-        else:  # infinite bounds: every test of the broad phase passes
-            vol = self._unbounded
-            vol.reach.fill(np.inf)
-        kernel = kernels.handle_all_parallel if self.parallel else kernels.handle_all
-        n_static, n_dynamic = kernel(vol, x_start, x, v, inv_mass, float(h), self._eps, self._friction, self._c_time,
-                                     self._switch_ratio, self._mode, contacts, self._scratch)
-        self.static_hits += int(n_static)
-        self.dynamic_hits += int(n_dynamic)
+        self._check_points(x_start, x, v, inv_mass, h, contacts)
+        self._points(x_start, x, v, inv_mass, float(h), contacts)
 
     def handle_edges(self, x_start, x, inv_mass, edges, rest_lengths) -> int:
         """Move cloth edges (E, 2) that cut into a volume deeper than their rest length allows back out,
@@ -176,34 +165,35 @@ class Collider:
         for name, array in (("x_start", x_start), ("x", x)):
             if not isinstance(array, np.ndarray) or array.shape != (self.n_points, 3) or array.dtype != np.float64:
                 raise ValueError(f"Collider.handle_edges: {name} must be a float64 array of shape ({self.n_points}, 3)")
-        edges = np.asarray(edges)
-        rest_lengths = np.asarray(rest_lengths, dtype=np.float64)
-        if edges is not self._checked_edges:  # the solver passes the same array every substep: check it once
-            if (edges.ndim != 2 or edges.shape[1] != 2 or rest_lengths.shape != (len(edges),)
-                    or (edges.size and not 0 <= edges.min() <= edges.max() < self.n_points)):
-                raise ValueError(f"Collider.handle_edges: edges must be (E, 2) point indices below {self.n_points} "
-                                 "with E rest lengths")
-            self._checked_edges = edges
-        elif rest_lengths.shape != (len(edges),):
-            raise ValueError(f"Collider.handle_edges: need {len(edges)} rest lengths, got shape {rest_lengths.shape}")
-        return int(kernels.handle_edges(self.arrays, x_start, x, np.asarray(inv_mass, dtype=np.float64), edges,
-                                        rest_lengths))
+        edges, rest_lengths = self._check_edges(edges, rest_lengths)
+        return self._edges(x_start, x, np.asarray(inv_mass, dtype=np.float64), edges, rest_lengths)
 
     def handle_axes(self, x_start, x, v, inv_mass, h: float, triangles) -> int:
         """Move cloth triangles (T, 3) that a volume's axis (its bone) passes through off it, to the
         volume's surface on the side they came from (``x_start``: substep start; see
         ``crossing.handle_axes``); x and v in place. Returns the number of triangles moved."""
-        self._check_points(x, v, inv_mass)
-        if not isinstance(x_start, np.ndarray) or x_start.shape != x.shape or x_start.dtype != np.float64:
-            raise ValueError(f"Collider.handle_axes: x_start must be a float64 array of shape {x.shape}")
-        if triangles is not self._checked_triangles:  # the solver passes the same array every substep
-            if (not isinstance(triangles, np.ndarray) or triangles.ndim != 2 or triangles.shape[1] != 3
-                    or triangles.dtype != np.int64
-                    or (triangles.size and not 0 <= triangles.min() <= triangles.max() < self.n_points)):
-                raise ValueError(f"Collider.handle_axes: triangles must be an int64 (T, 3) array of point indices "
-                                 f"below {self.n_points}")
-            self._checked_triangles = triangles
-        return int(crossing.handle_axes(self.arrays, x_start, x, v, inv_mass, float(h), triangles, self._eps,
+        self._check_points(x_start, x, v, inv_mass, h)
+        self._check_triangles(triangles)
+        return self._axes(x_start, x, v, inv_mass, float(h), triangles)
+
+    def _points(self, x_start, x, v, inv_mass, h: float, contacts) -> None:
+        kernel = kernels.handle_all_parallel if self.parallel else kernels.handle_all
+        arrays = self._packed if self.use_broad_phase else self._packed_unbounded
+        n_static, n_dynamic = kernel(arrays, x_start, x, v, inv_mass, h, self._eps, self._friction, self._c_time,
+                                     self._switch_ratio, self._mode, contacts, self._scratch)
+        self.static_hits += int(n_static)
+        self.dynamic_hits += int(n_dynamic)
+
+    def _contacts(self, x_start, x, v, inv_mass, h: float, contacts, mode: int) -> None:
+        kernel = kernels.handle_contacts_parallel if self.parallel else kernels.handle_contacts
+        self.static_hits += int(kernel(self._packed, x_start, x, v, inv_mass, h, self._eps, self._friction,
+                                       self._switch_ratio, mode, contacts))
+
+    def _edges(self, x_start, x, inv_mass, edges, rest_lengths) -> int:
+        return int(kernels.handle_edges(self._packed, x_start, x, inv_mass, edges, rest_lengths))
+
+    def _axes(self, x_start, x, v, inv_mass, h: float, triangles) -> int:
+        return int(crossing.handle_axes(self._packed, x_start, x, v, inv_mass, h, triangles, self._eps,
                                         self._pinch_depth, AXIS_PASSES, self._corners))
 
     def penetration_depths(self, x) -> np.ndarray:
@@ -216,15 +206,12 @@ class Collider:
         if x.ndim != 2 or x.shape[1] != 3:
             raise ValueError(f"Collider.penetration_depths: x must have shape (N, 3), got {x.shape}")
         out = self._depths if x.shape[0] == self.n_points else np.zeros(x.shape[0])
-        kernels.penetration_depths(self.arrays, x, out)
+        kernels.penetration_depths(self._packed, x, out)
         return out.copy()
 
-    def _check_points(self, x, v, inv_mass, contacts=None) -> None:
+    def _check_points(self, x_start, x, v, inv_mass, h, contacts=None) -> None:
+        """Refuse what the kernels would misread: they index the arrays unchecked and write x, v, contacts."""
         n = self.n_points
-        if contacts is not None and (not isinstance(contacts, np.ndarray) or contacts.dtype != np.int64
-                                     or contacts.shape != (n, self.cache_size) or not contacts.flags.c_contiguous):
-            raise ValueError(f"Collider: contacts must be a C-contiguous int64 array of shape {(n, self.cache_size)} "
-                             "(Collider.new_contacts; modified in place)")
         for name, array, shape in (("x", x, (n, 3)), ("v", v, (n, 3)), ("inv_mass", inv_mass, (n,))):
             if not isinstance(array, np.ndarray) or array.shape != shape or array.dtype != np.float64:
                 got = f"{array.dtype} {array.shape}" if isinstance(array, np.ndarray) else type(array).__name__
@@ -232,3 +219,36 @@ class Collider:
                                  f"(modified in place), got {got}")
             if name != "inv_mass" and not array.flags.c_contiguous:
                 raise ValueError(f"Collider: {name} must be C-contiguous (it is modified in place)")
+        if not isinstance(x_start, np.ndarray) or x_start.shape != x.shape or x_start.dtype != np.float64:
+            raise ValueError(f"Collider: x_start must be a float64 array of shape {x.shape}")
+        if not h > 0.0:
+            raise ValueError(f"Collider: the substep length h must be > 0 s, got {h!r}")
+        if contacts is not None and contacts is not self._checked_contacts:  # the same array every substep
+            if (not isinstance(contacts, np.ndarray) or contacts.dtype != np.int64
+                    or contacts.shape != (n, self.cache_size) or not contacts.flags.c_contiguous):
+                raise ValueError(f"Collider: contacts must be a C-contiguous int64 array of shape "
+                                 f"{(n, self.cache_size)} (Collider.new_contacts; modified in place)")
+            self._checked_contacts = contacts
+
+    def _check_edges(self, edges, rest_lengths):
+        """``edges`` (E, 2) point indices and their ``rest_lengths`` (E,) m as arrays, or a clear error."""
+        edges = np.asarray(edges)
+        rest_lengths = np.asarray(rest_lengths, dtype=np.float64)
+        if edges is not self._checked_edges:  # the solver passes the same array every substep: check it once
+            if (edges.ndim != 2 or edges.shape[1] != 2 or rest_lengths.shape != (len(edges),)
+                    or (edges.size and not 0 <= edges.min() <= edges.max() < self.n_points)):
+                raise ValueError(f"Collider.handle_edges: edges must be (E, 2) point indices below {self.n_points} "
+                                 "with E rest lengths")
+            self._checked_edges = edges
+        elif rest_lengths.shape != (len(edges),):
+            raise ValueError(f"Collider.handle_edges: need {len(edges)} rest lengths, got shape {rest_lengths.shape}")
+        return edges, rest_lengths
+
+    def _check_triangles(self, triangles) -> None:
+        if triangles is not self._checked_triangles:  # the solver passes the same array every substep
+            if (not isinstance(triangles, np.ndarray) or triangles.ndim != 2 or triangles.shape[1] != 3
+                    or triangles.dtype != np.int64
+                    or (triangles.size and not 0 <= triangles.min() <= triangles.max() < self.n_points)):
+                raise ValueError(f"Collider.handle_axes: triangles must be an int64 (T, 3) array of point indices "
+                                 f"below {self.n_points}")
+            self._checked_triangles = triangles

@@ -37,6 +37,7 @@ from .geometry import (
     to_world,
 )
 from .response import surface_velocity
+from .volume_arrays import VolumeArrays
 from .volumes import CAPSULE
 
 # Barycentric and segment-parameter slack of the crossing test: a bone through a shared edge or
@@ -254,10 +255,11 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
 
 
 @kernel
-def handle_axes(vol, xs, x, vel, inv_mass, h, triangles, eps, pinch_depth, passes, corners):
+def handle_axes(arrays, xs, x, vel, inv_mass, h, triangles, eps, pinch_depth, passes, corners):
     """Every volume axis (the bones; not spheres) against every triangle (T, 3) of ``x`` at the end poses;
     a crossed triangle goes off the axis (``_push_off_axis``). Moving one can cross a neighbour, so up to
     ``passes`` passes, until one moves nothing. ``corners`` (3, 3): scratch. Returns the number of triangles moved."""
+    vol = VolumeArrays(*arrays)  # a plain tuple from Python (see ``collision.kernels``)
     bones, pos1, rot1 = vol.bones, vol.pos1, vol.rot1
     n_moved = 0
     for _ in range(passes):

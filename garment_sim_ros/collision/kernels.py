@@ -4,6 +4,9 @@ Every kernel takes the volumes first, as one ``VolumeArrays`` bundle (``vol``: s
 at the substep's start and end), then the points in one order: start positions ``xs`` (N, 3) m,
 positions ``x`` (N, 3) m, velocities ``vel`` (N, 3) m/s, inverse masses (N,) 1/kg, the substep
 length ``h`` s; then the parameters, then what is written besides the points (the contact cache).
+The kernels called from Python take the bundle as a plain tuple, ``tuple(vol)``, and name it on entry
+(``VolumeArrays(*arrays)``): numba types a named tuple argument in Python, about 3 us per call for its
+14 arrays (measured; the collision makes some 50 calls a frame), a plain tuple in C.
 One point against one volume is ``collision.response``; the local geometry ``collision.geometry``;
 the broad phase ``collision.broad_phase``.
 
@@ -25,6 +28,7 @@ from .broad_phase import (
     broad_phase_rejects,
     out_of_reach,
     outside_bounding_sphere,
+    reach_radii,
     segment_misses_box,
 )
 from .geometry import (
@@ -37,6 +41,7 @@ from .geometry import (
     to_local,
 )
 from .response import MODE_STATIC, NO_HIT, STATIC_HIT, handle_pair
+from .volume_arrays import VolumeArrays
 from .volumes import CAPSULE, SPHERE
 
 _SETTLE_PASSES = 4  # extra static passes for a point hit by a volume (overlapping volumes)
@@ -170,8 +175,11 @@ def _handle_point_all(vol, xs, x, vel, i, h, eps, friction, c_time, switch_ratio
     return n_static, n_dynamic
 
 
-def _handle_all(vol, xs, x, vel, inv_mass, h, eps, friction, c_time, switch_ratio, mode, cache, scratch):
-    """Memo §3 step 5 over all points. Returns (static hits, dynamic hits)."""
+def _handle_all(arrays, xs, x, vel, inv_mass, h, eps, friction, c_time, switch_ratio, mode, cache, scratch):
+    """Memo §3 step 5 over all points (the broad phase's reach first; with infinite bounding radii it is
+    infinite). Returns (static hits, dynamic hits)."""
+    vol = VolumeArrays(*arrays)
+    reach_radii(vol, xs, x, inv_mass)
     n_static = 0
     n_dynamic = 0
     for i in prange(x.shape[0]):  # the points are independent here: each touches its own rows only
@@ -204,7 +212,7 @@ def _contacts_point(vol, xs, x, vel, i, h, eps, friction, switch_ratio, mode, ca
     return n_moved
 
 
-def _handle_contacts(vol, xs, x, vel, inv_mass, h, eps, friction, switch_ratio, mode, cache):
+def _handle_contacts(arrays, xs, x, vel, inv_mass, h, eps, friction, switch_ratio, mode, cache):
     """Memo §3 step 4: the cached (point, volume) pairs at the end poses, during the length correction.
 
     ``mode`` as in ``handle_pair``, from the substep's start positions ``xs``. physics: the correction
@@ -213,6 +221,7 @@ def _handle_contacts(vol, xs, x, vel, inv_mass, h, eps, friction, switch_ratio, 
     straddling the limb. Tested along its relative trajectory, a deep point goes back out where it
     came in. No slide here (c_time 0): the velocities are recomputed after the correction and the
     full handling responds them. Returns the number of points moved out."""
+    vol = VolumeArrays(*arrays)
     n_moved = 0
     for i in prange(x.shape[0]):  # each point only touches its own row
         if inv_mass[i] != 0.0:
@@ -230,7 +239,7 @@ _EDGE_SLACK = 1.02
 
 
 @kernel
-def handle_edges(vol, xs, x, inv_mass, edges, rest_lengths):
+def handle_edges(arrays, xs, x, inv_mass, edges, rest_lengths):
     """Cloth edges against the volumes at the end poses (beyond the memo, which handles mass points only).
 
     physics: a limb pressed into an edge pushes its two mass points apart round its sides; once the
@@ -244,6 +253,7 @@ def handle_edges(vol, xs, x, inv_mass, edges, rest_lengths):
     limb moving further than its radius in one substep can pass an edge's middle past its axis;
     else the nearer one. Returns the number of edges moved.
     """
+    vol = VolumeArrays(*arrays)
     kinds, radii, cuts, bounding_radii, boxes = vol.kinds, vol.radii, vol.cuts, vol.bounding_radii, vol.boxes
     pos0, rot0, pos, rot = vol.pos0, vol.rot0, vol.pos1, vol.rot1
     n_moved = 0
@@ -306,8 +316,9 @@ def handle_edges(vol, xs, x, inv_mass, edges, rest_lengths):
 
 
 @kernel
-def penetration_depths(vol, x, out):
+def penetration_depths(arrays, x, out):
     """Depth of every point inside its deepest volume at the end poses (see ``penetration_depth``), 0 outside."""
+    vol = VolumeArrays(*arrays)
     kinds, radii, cuts, pos, rot = vol.kinds, vol.radii, vol.cuts, vol.pos1, vol.rot1
     for i in range(x.shape[0]):
         deepest = 0.0
