@@ -6,7 +6,7 @@ positions ``x`` (N, 3) m, velocities ``vel`` (N, 3) m/s, inverse masses (N,) 1/k
 length ``h`` s; then the parameters, then what is written besides the points (the contact cache).
 The kernels called from Python take the bundle as a plain tuple, ``tuple(vol)``, and name it on entry
 (``VolumeArrays(*arrays)``): numba types a named tuple argument in Python, about 3 us per call for its
-14 arrays (measured; the collision makes some 50 calls a frame), a plain tuple in C.
+14 arrays (measured; the collision makes 50 to 100 calls a frame), a plain tuple in C.
 One point against one volume is ``collision.response``; the local geometry ``collision.geometry``;
 the broad phase ``collision.broad_phase``.
 
