@@ -128,8 +128,9 @@ class DressedCharacter:
         inside = depth > params.collision_epsilon
         if not inside.any():
             return mesh
+        contacts = collider.new_contacts()
         for _ in range(passes):
-            collider.handle_all(x.copy(), x, np.zeros_like(x), inv_mass, 1.0 / 60.0)
+            collider.handle_all(x.copy(), x, np.zeros_like(x), inv_mass, 1.0 / 60.0, contacts)
         left = float(np.max(collider.penetration_depths(x)[free]))
         if left > params.collision_epsilon:
             raise GarmentMeshError(f"{spec.where}: {int(inside.sum())} vertices start inside the body, still "
