@@ -441,7 +441,7 @@ class CharacterLoop:
         # stamped before dressing: a mesh refused while dressing is retried once its file is saved again
         self._spec_stamps.update({f: f.stat().st_mtime for s in specs for f in (s.path, s.mesh) if f is not None})
         character = make_character(canonical_pose(pose, joint_map), joint_map, specs, self.params, self.resolution,
-                                   overrides=overrides)
+                                   overrides=overrides, motion=[pose])
         if character.body.estimated:
             self._log("warning", "estimated", f"body measurement(s) {', '.join(character.body.estimated)} were out "
                       "of human range for this skeleton and were estimated from its height; override them with "
