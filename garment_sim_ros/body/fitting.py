@@ -444,7 +444,8 @@ def fit_body(rest_pose: SkeletonPose, joint_map: Mapping[str, str], detailed: bo
     ``{volume: {radii: [x, y, z], cut: [lo, hi], offset_position: [x, y, z]}}`` (metres, the
     volume's local frame / its joint frame), applied after fitting.
     ``motion``: poses of the same skeleton the body will be driven with (``MotionSource.fit_poses``: the
-    first, the node's too); trunk volumes an arm bone comes near in them are narrowed (``_narrow_for_motion``).
+    pose it is dressed on, as in the node); trunk volumes an arm bone comes near in them are narrowed
+    (``_narrow_for_motion``).
     """
     joint_map = validate_joint_map(joint_map, rest_pose.skeleton)
     if any(pose.skeleton != rest_pose.skeleton for pose in motion):
