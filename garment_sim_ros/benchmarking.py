@@ -75,7 +75,8 @@ def character_benchmark(garment: str, params: SolverParams, frame_s: float, fram
     if not frame_s > 0.0:
         raise ValueError(f"frame time must be > 0 s, got {frame_s!r}")
     source = procedural_source(gait)
-    character = make_character(source.rest_pose, source.joint_map, [garment], params, resolution)
+    character = make_character(source.rest_pose, source.joint_map, [garment], params, resolution,
+                               motion=source.fit_poses())
     solver = character.solvers[0]
     character.dress(source.pose(0.0), 0.0, source.motion(0.0))
 

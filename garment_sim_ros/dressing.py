@@ -52,12 +52,15 @@ from .transforms import compose, inverse, quat_slerp, yaw_quat
 
 def make_character(rest_pose: SkeletonPose, joint_map: dict[str, str], garments: Sequence[str | GarmentSpec],
                    params: SolverParams, resolution: float = 1.0, *, garment_path: Sequence[str] = (),
-                   decimate_to: int | None = None, overrides: BodyOverrides | None = None) -> "DressedCharacter":
+                   decimate_to: int | None = None, overrides: BodyOverrides | None = None,
+                   motion: Sequence[SkeletonPose] = ()) -> "DressedCharacter":
     """Fit a body to ``rest_pose`` (``joint_map``: role -> frame name; ``overrides``: per-volume changes,
-    ``config/body.yaml``) and dress it in ``garments`` (built-in names, spec files or specs): the detailed
-    15-volume body when any garment's spec asks for it (the one-piece), else the 10-volume one."""
+    ``config/body.yaml``; ``motion``: poses it will be driven with, ``MotionSource.fit_poses``, so that no
+    arm bone starts inside its trunk) and dress it in ``garments`` (built-in names, spec files or specs): the
+    detailed 15-volume body when any garment's spec asks for it (the one-piece), else the 10-volume one."""
     specs = [resolve_garment(g, garment_path) for g in garments]
-    body = fit_body(rest_pose, joint_map, detailed=any(s.detailed_body for s in specs), overrides=overrides)
+    body = fit_body(rest_pose, joint_map, detailed=any(s.detailed_body for s in specs), overrides=overrides,
+                    motion=motion)
     return DressedCharacter(body, specs, params, resolution, garment_path, decimate_to)
 
 

@@ -402,7 +402,7 @@ class CharacterLoop:
         # watched before dressing: a mesh refused while dressing is retried once its file is saved again
         self._spec_files.add(f for s in specs for f in (s.path, s.mesh) if f is not None)
         character = make_character(canonical_pose(pose, joint_map), joint_map, specs, self.params, self.resolution,
-                                   overrides=overrides)
+                                   overrides=overrides, motion=[pose])
         if character.body.estimated:
             self.events.log("warning", "estimated", f"body measurement(s) {', '.join(character.body.estimated)} were "
                             "out of human range for this skeleton and were estimated from its height; override them "
