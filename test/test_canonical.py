@@ -14,14 +14,9 @@ import pytest
 
 from garment_sim_ros.body.bvh import load_bvh
 from garment_sim_ros.body.canonical import ARM_DROP_DEG, canonical_pose, local_transforms
-from garment_sim_ros.body.fitting import (
-    ARM_BONES,
-    LEG_PER_STATURE,
-    NARROWEST_TRUNK_PER_STATURE,
-    PLAUSIBLE_PER_STATURE,
-    fit_body,
-)
+from garment_sim_ros.body.fitting import LEG_PER_STATURE, PLAUSIBLE_PER_STATURE, fit_body
 from garment_sim_ros.body.joint_map import auto_joint_map
+from garment_sim_ros.body.narrowing import ARM_BONES, NARROWEST_TRUNK_PER_STATURE
 from garment_sim_ros.body.pose_buffer import PoseBuffer
 from garment_sim_ros.body.skeleton import SkeletonPose
 from garment_sim_ros.body.sources import bvh_source
