@@ -65,9 +65,9 @@ def character_benchmark(garment: str, params: SolverParams, frame_s: float, fram
                         resolution: float = 1.0, rerun: bool = True, gait: str = "walk") -> dict:
     """Dress the procedural character (``gait``) in ``garment`` at ``resolution`` and time ``frames``
     frames of ``frame_s`` seconds after ``warmup`` untimed ones. Returns the per-frame medians."""
-    from .markers import frame_markers
     from .rerun_log import RerunLogger, frame_payload
     from .runtime.marker_cdr import serialize_marker_array
+    from .runtime.markers import frame_markers
     from .runtime.tf_input import seconds_to_stamp
 
     if frames < 1 or warmup < 0:
@@ -75,7 +75,8 @@ def character_benchmark(garment: str, params: SolverParams, frame_s: float, fram
     if not frame_s > 0.0:
         raise ValueError(f"frame time must be > 0 s, got {frame_s!r}")
     source = procedural_source(gait)
-    character = make_character(source.rest_pose, source.joint_map, [garment], params, resolution)
+    character = make_character(source.rest_pose, source.joint_map, [garment], params, resolution,
+                               motion=source.fit_poses())
     solver = character.solvers[0]
     character.dress(source.pose(0.0), 0.0, source.motion(0.0))
 

@@ -65,12 +65,15 @@ SAME_BAND_M = 0.02  # an outer garment's attachment this close to an inner one's
 
 def make_character(rest_pose: SkeletonPose, joint_map: dict[str, str], garments: Sequence[str | GarmentSpec],
                    params: SolverParams, resolution: float = 1.0, *, garment_path: Sequence[str] = (),
-                   decimate_to: int | None = None, overrides: BodyOverrides | None = None) -> "DressedCharacter":
+                   decimate_to: int | None = None, overrides: BodyOverrides | None = None,
+                   motion: Sequence[SkeletonPose] = ()) -> "DressedCharacter":
     """Fit a body to ``rest_pose`` (``joint_map``: role -> frame name; ``overrides``: per-volume changes,
-    ``config/body.yaml``) and dress it in ``garments`` (built-in names, spec files or specs): the detailed
-    15-volume body when any garment's spec asks for it (the one-piece), else the 10-volume one."""
+    ``config/body.yaml``; ``motion``: poses it will be driven with, ``MotionSource.fit_poses``, so that no
+    arm bone starts inside its trunk) and dress it in ``garments`` (built-in names, spec files or specs): the
+    detailed 15-volume body when any garment's spec asks for it (the one-piece), else the 10-volume one."""
     specs = [resolve_garment(g, garment_path) for g in garments]
-    body = fit_body(rest_pose, joint_map, detailed=any(s.detailed_body for s in specs), overrides=overrides)
+    body = fit_body(rest_pose, joint_map, detailed=any(s.detailed_body for s in specs), overrides=overrides,
+                    motion=motion)
     return DressedCharacter(body, specs, params, resolution, garment_path, decimate_to)
 
 
@@ -150,8 +153,9 @@ class DressedCharacter:
         inside = depth > params.collision_epsilon
         if not inside.any():
             return mesh
+        contacts = collider.new_contacts()
         for _ in range(passes):
-            collider.handle_all(x.copy(), x, np.zeros_like(x), inv_mass, 1.0 / 60.0)
+            collider.handle_all(x.copy(), x, np.zeros_like(x), inv_mass, 1.0 / 60.0, contacts)
         left = float(np.max(collider.penetration_depths(x)[free]))
         if left > params.collision_epsilon:
             raise GarmentMeshError(f"{spec.where}: {int(inside.sum())} vertices start inside the body, still "

@@ -14,10 +14,10 @@ from .body.pose_buffer import PoseBuffer
 from .body.sources import procedural_source
 from .collision.collider import PARALLEL_MIN_POINTS
 from .dressing import make_character
-from .markers import frame_markers
 from .params import DEFAULT_PARAMS
 from .rerun_log import frame_payload
 from .runtime.marker_cdr import serialize_marker_array
+from .runtime.markers import frame_markers
 
 
 def warm_up() -> float:

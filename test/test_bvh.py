@@ -250,6 +250,21 @@ def test_non_numeric_offset_names_the_line(tmp_path):
     assert ":8: joint 'Chest' OFFSET: 'ten' is not a number" in error_of(tmp_path, text)
 
 
+@pytest.mark.parametrize("old, new, message", [
+    ("HIERARCHY", "HIERARCHIE", ":1: expected 'HIERARCHY', got 'HIERARCHIE'"),
+    ("ROOT Hips", "ROOT Hips Pelvis", ":2: expected 'ROOT <name>', got 'ROOT Hips Pelvis'"),
+    ("JOINT Chest\n  {", "JOINT Chest\n  (", ":7: expected '{' after joint 'Chest', got '('"),
+    ("OFFSET 0 10.0 0", "OFFSET 0 10.0", ":8: joint 'Chest': expected 'OFFSET x y z', got 'OFFSET 0 10.0'"),
+    ("CHANNELS 3 Z", "CHANNELS three Z",
+     ":9: joint 'Chest': expected 'CHANNELS <count> <names...>', got 'CHANNELS three"),
+    ("MOTION", "MOTIONS", ":16: expected 'MOTION' after the hierarchy, got 'MOTIONS'"),
+    ("Frames: 1", "Frames: 0", ":17: expected 'Frames: <count >= 1>', got 'Frames: 0'"),
+    ("Frame Time: 0.5", "FrameTime: 0.5", ":18: expected 'Frame Time: <seconds>', got 'FrameTime: 0.5'"),
+])
+def test_a_misspelt_line_names_the_line_what_was_expected_and_what_it_says(tmp_path, old, new, message):
+    assert message in error_of(tmp_path, two_joint_bvh().replace(old, new, 1))
+
+
 def test_unknown_channel_name_is_refused(tmp_path):
     text = two_joint_bvh().replace("CHANNELS 3 Zrotation", "CHANNELS 3 Wrotation")
     assert ":9: joint 'Chest': unknown channel 'Wrotation'" in error_of(tmp_path, text)

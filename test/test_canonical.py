@@ -14,12 +14,15 @@ import pytest
 
 from garment_sim_ros.body.bvh import load_bvh
 from garment_sim_ros.body.canonical import ARM_DROP_DEG, canonical_pose, local_transforms
-from garment_sim_ros.body.fitting import PLAUSIBLE_PER_STATURE, fit_body
+from garment_sim_ros.body.fitting import LEG_PER_STATURE, PLAUSIBLE_PER_STATURE, fit_body
 from garment_sim_ros.body.joint_map import auto_joint_map
+from garment_sim_ros.body.narrowing import ARM_BONES, NARROWEST_TRUNK_PER_STATURE
 from garment_sim_ros.body.pose_buffer import PoseBuffer
+from garment_sim_ros.body.skeleton import SkeletonPose
 from garment_sim_ros.body.sources import bvh_source
 from garment_sim_ros.cloth.garments import GARMENT_NAMES, build_garment
 from garment_sim_ros.collision.collider import Collider
+from garment_sim_ros.collision.volumes import VolumeSet
 from garment_sim_ros.params import DEFAULT_PARAMS
 from garment_sim_ros.quality import GarmentMeter
 from garment_sim_ros.runtime.character_loop import CharacterLoop, Status
@@ -127,8 +130,6 @@ def test_an_out_of_range_measurement_is_estimated_and_named():
     narrow = pose.positions.copy()
     for side in ("left", "right"):
         narrow[pose.skeleton.index(jm[f"{side}_upper_arm"]), 1] *= 0.2
-    from garment_sim_ros.body.skeleton import SkeletonPose
-
     body = fit_body(SkeletonPose(pose.skeleton, narrow, pose.rotations), jm, detailed=True)
     assert body.estimated == ("shoulder_y",)
     typical = PLAUSIBLE_PER_STATURE["shoulder_y"][2]  # per stature (from the legs), close to the height
@@ -144,6 +145,79 @@ def test_skeleton_command_says_what_was_estimated(capsys):
     info = json.loads(capsys.readouterr().out)
     assert info["estimated"] == [] and info["joint_map"]["chest"] == "CC_Base_Spine02"
     assert info["measurements"]["chest_ry"] > 0.12
+
+
+def arm_bone_depths(body, jm, pose: SkeletonPose) -> np.ndarray:
+    """Depth (m) of points along the arm bones at ``pose`` inside the body's trunk volumes (0 outside)."""
+    trunk = VolumeSet(tuple(v for v in body.volumes.volumes if v.name in NARROWEST_TRUNK_PER_STATURE))
+    frames = [pose.skeleton.index(f) for f in trunk.frames]
+    positions, rotations = trunk.world_poses(pose.positions[frames], pose.rotations[frames])
+    along = np.linspace(0.0, 1.0, 41)[:, None]
+    points = np.concatenate([pose.frame(jm[a])[0] + along * (pose.frame(jm[b])[0] - pose.frame(jm[a])[0])
+                             for a, b in ARM_BONES])
+    collider = Collider(trunk, len(points))
+    collider.begin_frame(positions, rotations, positions, rotations)
+    collider.begin_substep(0.0, 1.0)
+    return collider.penetration_depths(points)
+
+
+def leg_stature(pose: SkeletonPose, jm) -> float:
+    """The stature fitting reads from the legs (hip-knee-ankle), m."""
+    at = {role: pose.frame(name)[0] for role, name in jm.items()}
+    leg = np.mean([np.linalg.norm(at[f"{s}_lower_leg"] - at[f"{s}_upper_leg"])
+                   + np.linalg.norm(at[f"{s}_foot"] - at[f"{s}_lower_leg"]) for s in ("left", "right")])
+    return float(leg / LEG_PER_STATURE)
+
+
+def test_a_body_fitted_to_its_first_pose_has_no_arm_bone_inside_its_trunk(standing):
+    """Issue 10, item 6: a trunk volume an arm bone of the same body enters in the pose it is dressed on is
+    too wide for this subject; fitted to that pose, it is narrowed (and only it) until the bones clear it."""
+    clip, jm, pose = standing
+    first = clip.pose(0)
+    plain = fit_body(pose, jm, detailed=True)
+    body = fit_body(pose, jm, detailed=True, motion=[first])
+    assert arm_bone_depths(body, jm, first).max() == 0.0
+    for before, after in zip(plain.volumes.volumes, body.volumes.volumes):
+        scale = body.narrowed.get(before.name, 1.0)
+        np.testing.assert_allclose(after.radii, (scale * before.radii[0], scale * before.radii[1], before.radii[2]),
+                                   rtol=1e-12, err_msg=before.name)
+        if before.name in body.narrowed:  # narrowed no further than a slim adult (a slimmer fit stays as it is)
+            assert scale < 1.0
+            assert after.radii[1] >= NARROWEST_TRUNK_PER_STATURE[before.name] * leg_stature(pose, jm) * (1 - 1e-9)
+    assert body.measurements.hip_ry <= plain.measurements.hip_ry
+    if Path(clip.path).name.startswith("cmu_131"):  # the right forearm hangs 1.2 mm inside the hip volume
+        assert arm_bone_depths(plain, jm, first).max() > 1e-3 and set(body.narrowed) == {"pelvis"}
+        assert body.measurements.hip_ry < plain.measurements.hip_ry
+
+
+def test_a_trunk_is_narrowed_no_further_than_a_slim_adults():
+    """An arm bone through the middle of the hips (a rig or a clip gone wrong) cannot be cleared by a human
+    body: the pelvis stops at the slimmest adult's width, and ``narrowed`` says it."""
+    clip = load_bvh(DATA / "cc_cmu_07_01_walk.bvh")
+    first = clip.pose(0)
+    jm = auto_joint_map(clip.skeleton, first.positions)
+    pose = canonical_pose(first, jm)
+    through = first.positions.copy()
+    pelvis = first.frame(jm["pelvis"])[0]
+    for role, offset in (("right_lower_arm", 0.1), ("right_hand", -0.1)):
+        through[first.skeleton.index(jm[role])] = pelvis + [0.0, offset, 0.0]  # right forearm across the hips
+    body = fit_body(pose, jm, motion=[SkeletonPose(first.skeleton, through, first.rotations)])
+    volume = {v.name: v for v in body.volumes.volumes}["pelvis"]
+    assert volume.radii[1] == pytest.approx(NARROWEST_TRUNK_PER_STATURE["pelvis"] * leg_stature(pose, jm), rel=1e-9)
+    assert 0.8 < body.narrowed["pelvis"] < 1.0
+
+
+def test_skeleton_command_says_what_was_narrowed(capsys):
+    import json
+
+    from garment_sim_ros import cli
+
+    assert cli.main(["skeleton", str(DATA / "cmu_131_01_walk_mjstyle.bvh"), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert set(info["narrowed"]) == {"pelvis"} and 0.8 < info["narrowed"]["pelvis"] < 1.0
+    assert cli.main(["skeleton", str(DATA / "cmu_131_01_walk_mjstyle.bvh")]) == 0
+    assert "narrowed (an arm bone is near or in it in the first pose; cross-section scaled): pelvis x0." in \
+        capsys.readouterr().out
 
 
 # ------------------------------------------------------------------------------------ clip edges
@@ -193,6 +267,24 @@ def test_the_node_stands_a_character_creator_rig_up_from_tf_as_the_clip_path_doe
     for a, b in zip(node_body.volumes.volumes, clip_body.volumes.volumes):
         np.testing.assert_allclose(a.radii, b.radii, rtol=0.02, err_msg=a.name)
     assert node_body.measurements.chest_ry == pytest.approx(clip_body.measurements.chest_ry, rel=0.02)
+
+
+def test_the_node_fits_the_trunk_to_the_pose_it_dresses_on():
+    """The node has only the poses it has seen: it narrows the hips round cmu_131's hanging forearm too, and
+    no limb bone crosses the garment right after dressing."""
+    source = bvh_source(str(DATA / "cmu_131_01_walk_mjstyle.bvh"))
+    buffer = PoseBuffer("world", max_age_s=0.5)
+    loop = CharacterLoop(buffer, DEFAULT_PARAMS, ["long_skirt"], 1.0, catch_up_wall_s=math.inf)
+    t, result = 0.0, None
+    while loop.status != Status.RUNNING and t < 1.0:
+        feed(buffer, source, t)
+        result = loop.frame(t)
+        t += FRAME
+    assert loop.status == Status.RUNNING, loop.detail
+    body = loop.character.body
+    assert "pelvis" in body.narrowed and arm_bone_depths(body, loop.joint_map, result.pose).max() == 0.0
+    meter = GarmentMeter(loop.character.solvers[0].model, body.volumes, loop.joint_map)
+    assert meter.bones_through(loop.character.world_positions()[0], result.pose) == []
 
 
 def test_the_node_waits_while_the_bones_still_change_length():
@@ -249,36 +341,26 @@ def test_a_headless_run_dresses_again_at_a_loop_seam_instead_of_dragging_the_gar
     assert character.max_penetration() < 1e-3
 
 
-# Limb bones still through the cloth right after dressing, and why (issue 10, item 6; measured):
-# in cmu_131's first pose the right forearm bone dips 1 mm into the hip volume (the subject is slimmer
-# than the fitted hips), and the garments but the one-piece have no forearm volume to keep cloth off it;
-# on CC 02_04 the one-piece's triangles between the left upper arm and the chest can only clear the
-# bone 6 mm deep in another volume (measured with pinch_depth 1 cm), deeper than pinch_depth: contact
-# wins (collision.crossing).
-DRESSING_PINCHES = {("cmu_131_01_walk_mjstyle.bvh", garment): {"right_forearm"} for garment in GARMENT_NAMES}
-DRESSING_PINCHES[("cc_cmu_02_04_jump_balance.bvh", "one_piece")] = {"left_upper_arm"}
-
-
 @pytest.mark.parametrize("clip_name", CLIPS)
 def test_right_after_dressing_no_free_point_is_inside_the_body_and_no_limb_bone_crosses_the_cloth(clip_name):
     """Dressing goes through the canonical pose, where every garment clears every volume, onto the clip's
-    first pose with collision handling all the way: every garment starts outside the body on every clip,
-    and no limb bone crosses it but the measured pinches above."""
+    first pose with collision handling all the way, on a body fitted to the clip's motion (no arm bone inside
+    its trunk): every garment starts outside the body on every clip, and no limb bone crosses it."""
     from garment_sim_ros.cloth.solver import FrameReport
     from garment_sim_ros.dressing import make_character
     from garment_sim_ros.params import preset
 
     source = bvh_source(str(DATA / clip_name), loop=False)
-    pose = source.pose(0.0)
+    pose, motion = source.pose(0.0), source.fit_poses()
     for garment in GARMENT_NAMES:
-        character = make_character(source.rest_pose, source.joint_map, [garment], preset("si"), 1.0)
+        character = make_character(source.rest_pose, source.joint_map, [garment], preset("si"), 1.0, motion=motion)
         character.dress(pose, 0.0, source.motion(0.0))
         report = FrameReport()
         character.measure([report], pose)
         assert report.max_depth_m < 1e-3, (garment, report.max_depth_m)
         meter = GarmentMeter(character.solvers[0].model, character.body.volumes, character.joint_map)
         crossed = set(meter.bones_through(character.world_positions()[0], pose))
-        assert crossed <= DRESSING_PINCHES.get((clip_name, garment), set()), (garment, crossed)
+        assert not crossed, (garment, crossed)
 
 
 def test_a_guard_recovery_dresses_through_the_canonical_pose_and_the_next_frame_is_clean():

@@ -36,12 +36,14 @@ def make_collider(volumes, n_points, pos0, rot0=None, pos1=None, rot1=None, cach
     return collider
 
 
-def handle(collider, x_start, x, v=None, h=H, inv_mass=None):
+def handle(collider, x_start, x, v=None, h=H, inv_mass=None, contacts=None):
+    """``collider.handle_all`` on copies of the points; ``contacts`` (the garment's cache, kept across calls
+    by the caller) or a fresh one."""
     x_start = np.array(x_start, dtype=float).reshape(-1, 3)
     x = np.array(x, dtype=float).reshape(-1, 3)
     v = np.zeros_like(x) if v is None else np.array(v, dtype=float).reshape(-1, 3)
     inv_mass = np.ones(len(x)) if inv_mass is None else np.asarray(inv_mass, dtype=float)
-    collider.handle_all(x_start, x, v, inv_mass, h)
+    collider.handle_all(x_start, x, v, inv_mass, h, collider.new_contacts() if contacts is None else contacts)
     return x, v
 
 
@@ -261,11 +263,12 @@ def test_adaptive_switch_measures_the_relative_trajectory_and_reads_the_ratio():
 def test_cached_contacts_are_handled_by_handle_contacts_only():
     vols = [sphere(0.1, "a"), sphere(0.1, "b")]
     c = make_collider(vols, 2, [[0, 0, 0], [1, 0, 0]], collision_mode="static", collision_epsilon=0.0)
-    x, v = handle(c, [[0.05, 0, 0], [1.5, 0, 0]], [[0.05, 0, 0], [1.5, 0, 0]])
-    np.testing.assert_array_equal(c.cache[:, 0], [0, -1])  # point 0 hit volume a; point 1 hit nothing
+    contacts = c.new_contacts()
+    x, v = handle(c, [[0.05, 0, 0], [1.5, 0, 0]], [[0.05, 0, 0], [1.5, 0, 0]], contacts=contacts)
+    np.testing.assert_array_equal(contacts[:, 0], [0, -1])  # point 0 hit volume a; point 1 hit nothing
     # both points are pushed inside a volume; only point 0 has a cached contact
     x = np.array([[0.0, 0.05, 0.0], [1.0, 0.05, 0.0]])
-    c.handle_contacts(None, x, v, np.ones(2), h=H)
+    c.handle_contacts(None, x, v, np.ones(2), H, contacts)
     np.testing.assert_allclose(x[0], [0, 0.1, 0], atol=1e-12)
     np.testing.assert_array_equal(x[1], [1.0, 0.05, 0.0])
     assert c.static_hits == 2
@@ -274,12 +277,13 @@ def test_cached_contacts_are_handled_by_handle_contacts_only():
 def test_cache_keeps_recent_hits_first_and_evicts_far_volumes():
     vols = [Volume("a", ELLIPSOID, "f", (0.05, 0.05, 0.2)), sphere(0.1, "b"), sphere(0.1, "c")]
     c = make_collider(vols, 1, [[0, 0, 0], [0.25, 0, 0], [3, 0, 0]], cache_size=2, collision_mode="static")
-    handle(c, [0.01, 0, 0], [0.01, 0, 0])  # inside a only
-    np.testing.assert_array_equal(c.cache[0], [0, -1])
-    handle(c, [0.16, 0, 0.0], [0.16, 0, 0.0])  # inside a's bounding sphere (kept), inside b (first)
-    np.testing.assert_array_equal(c.cache[0], [1, 0])
-    handle(c, [2.0, 0, 0], [2.0, 0, 0])  # far from both: evicted
-    np.testing.assert_array_equal(c.cache[0], [-1, -1])
+    contacts = c.new_contacts()
+    handle(c, [0.01, 0, 0], [0.01, 0, 0], contacts=contacts)  # inside a only
+    np.testing.assert_array_equal(contacts[0], [0, -1])
+    handle(c, [0.16, 0, 0.0], [0.16, 0, 0.0], contacts=contacts)  # inside a's bounding sphere (kept), inside b (first)
+    np.testing.assert_array_equal(contacts[0], [1, 0])
+    handle(c, [2.0, 0, 0], [2.0, 0, 0], contacts=contacts)  # far from both: evicted
+    np.testing.assert_array_equal(contacts[0], [-1, -1])
 
 
 def random_scene(seed, n_points=400):
@@ -318,8 +322,7 @@ def test_broad_phase_rejects_far_pairs():
     vols, pos0, rot0, pos1, rot1, xs, x, v = random_scene(4)
     c = make_collider(vols, len(x), pos0, rot0, pos1, rot0)  # translating volumes
     far = xs + 5.0
-    rejected = [broad_phase.broad_phase_rejects(c._bounding_radii, c.substep_start_positions, c.substep_end_positions,
-                                            c._displacement, c._chord, k, far, far + 0.01, 0) for k in range(3)]
+    rejected = [broad_phase.broad_phase_rejects(c.arrays, k, far, far + 0.01, 0) for k in range(3)]
     assert all(rejected)
 
 
@@ -330,8 +333,9 @@ def test_parallel_kernel_matches_serial():
         c = Collider(VolumeSet(tuple(vols)), len(x), cache_size=2, parallel=parallel)
         c.begin_frame(pos0, rot0, pos1, rot1)
         c.begin_substep(0.0, 1.0)
-        xb, vb = handle(c, xs, x, v)
-        out.append((xb, vb, c.cache.copy(), c.static_hits, c.dynamic_hits))
+        contacts = c.new_contacts()
+        xb, vb = handle(c, xs, x, v, contacts=contacts)
+        out.append((xb, vb, contacts, c.static_hits, c.dynamic_hits))
     for a, b in zip(*out):
         np.testing.assert_array_equal(a, b)
 
@@ -448,16 +452,16 @@ def test_substep_poses_are_interpolated_linear_and_slerp():
     q1 = quat_from_axis_angle([1.0, 1.0, 0], 1.4)
     c = make_collider([sphere()], 1, [0, 0, 0], [q0], [1.0, 2.0, 3.0], [q1])
     c.begin_substep(0.25, 0.75)
-    np.testing.assert_allclose(c.substep_start_positions[0], [0.25, 0.5, 0.75])
-    np.testing.assert_allclose(c.substep_end_positions[0], [0.75, 1.5, 2.25])
-    np.testing.assert_allclose(c.substep_start_rotations[0], quat_to_matrix(quat_slerp(q0, q1, 0.25)), atol=1e-12)
-    np.testing.assert_allclose(c.substep_end_rotations[0], quat_to_matrix(quat_slerp(q0, q1, 0.75)), atol=1e-12)
+    np.testing.assert_allclose(c.arrays.pos0[0], [0.25, 0.5, 0.75])
+    np.testing.assert_allclose(c.arrays.pos1[0], [0.75, 1.5, 2.25])
+    np.testing.assert_allclose(c.arrays.rot0[0], quat_to_matrix(quat_slerp(q0, q1, 0.25)), atol=1e-12)
+    np.testing.assert_allclose(c.arrays.rot1[0], quat_to_matrix(quat_slerp(q0, q1, 0.75)), atol=1e-12)
 
 
 def test_bad_input_is_refused_with_a_clear_message():
     c = make_collider([sphere()], 2, [0, 0, 0])
     with pytest.raises(ValueError, match=r"x must be a float64 array of shape \(2, 3\)"):
-        c.handle_all(np.zeros((2, 3)), np.zeros((3, 3)), np.zeros((2, 3)), np.ones(2), H)
+        c.handle_all(np.zeros((2, 3)), np.zeros((3, 3)), np.zeros((2, 3)), np.ones(2), H, c.new_contacts())
     with pytest.raises(ValueError, match="pos1 must be finite with shape"):
         c.begin_frame(np.zeros((1, 3)), IDENTITY_QUAT[None], np.zeros((2, 3)), IDENTITY_QUAT[None])
     with pytest.raises(ValueError, match="0 <= f0 < f1 <= 1"):
@@ -494,10 +498,10 @@ def sweep(collider, x_start, x):
     v, inv_mass = np.zeros_like(x), np.ones(len(x))
     edges = np.array([[0, 1], [1, 3], [3, 2], [2, 0], [1, 2]])
     rest = np.linalg.norm(x_start[edges[:, 0]] - x_start[edges[:, 1]], axis=1)
-    collider.handle_all(x_start, x, v, inv_mass, H)
+    collider.handle_all(x_start, x, v, inv_mass, H, collider.new_contacts())
     collider.handle_edges(x_start, x, inv_mass, edges, rest)
     before = x.copy()
-    moved = collider.handle_axes(x_start, x, v, inv_mass, STRIP_TRIANGLES, H)
+    moved = collider.handle_axes(x_start, x, v, inv_mass, H, STRIP_TRIANGLES)
     return before, moved, v
 
 

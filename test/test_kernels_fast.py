@@ -89,15 +89,16 @@ def _run_substeps(seed, n_points, parallel, use_broad_phase, substeps=4, h=0.01)
     v = np.zeros_like(x)
     inv_mass = np.ones(n_points)
     inv_mass[::17] = 0.0  # attached points are left alone
+    contacts = collider.new_contacts()
     steps = rng.normal(0.0, 0.02, (substeps, n_points, 3))
     for k in range(substeps):
         collider.begin_substep(k / substeps, (k + 1) / substeps)
         x_start = x.copy()
         x = x + steps[k] * inv_mass[:, None]
         v = (x - x_start) / h
-        collider.handle_contacts(x_start, x, v, inv_mass, h)
-        collider.handle_all(x_start, x, v, inv_mass, h)
-    return x, v, collider.cache.copy(), collider.static_hits, collider.dynamic_hits
+        collider.handle_contacts(x_start, x, v, inv_mass, h, contacts)
+        collider.handle_all(x_start, x, v, inv_mass, h, contacts)
+    return x, v, contacts, collider.static_hits, collider.dynamic_hits
 
 
 @pytest.mark.parametrize("seed", [11, 12])

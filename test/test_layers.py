@@ -9,6 +9,8 @@
   (``params``, ``transforms``, ``config_files``): nothing of the layers above it;
 - no library module (anything outside ``ros/``, ``commands/`` and ``cli.py``) imports ``ros/`` or
   ``commands/``;
+- the library between the core and the runtime (the top-level modules but the tools that drive the
+  runtime, ``ABOVE_RUNTIME``) imports nothing of ``runtime/``, and the runtime none of those tools;
 - only ``ros/`` imports rclpy or a ROS message package.
 
 Each rule is also run on planted violations, so a checker that stopped seeing imports would fail here.
@@ -26,6 +28,7 @@ ROOT = Path(__file__).resolve().parents[1] / PACKAGE
 
 CORE = ("body", "cloth", "collision")
 SHARED = ("params", "transforms", "quat_kernels", "config_files")  # top-level modules the core may use
+ABOVE_RUNTIME = ("benchmarking", "warmup", "docs", "cli")  # top-level modules that use runtime/
 ROS_FREE = CORE + ("runtime",)
 # ROS client libraries and interface packages; ``rosbags`` (pure Python, no ROS install) is not one of them
 ROS_PREFIXES = ("rclpy", "rcl_interfaces", "builtin_interfaces", "rosidl", "tf2_ros", "rosbag2_py", "ament_index")
@@ -84,6 +87,12 @@ def violations(module: str, imported: set[str]) -> list[str]:
         for upper in ("ros", "commands"):
             if within(name, upper) and here not in ("ros", "commands") and module != f"{PACKAGE}.cli":
                 found.append(f"{module} imports {name}: only ros/, commands/ and cli.py import {upper}/")
+        top_level = module.split(".")[1] if here == "" and module != PACKAGE else None
+        if within(name, "runtime") and top_level is not None and top_level not in ABOVE_RUNTIME:
+            found.append(f"{module} imports {name}: of the top-level modules only {', '.join(ABOVE_RUNTIME)} "
+                         "import runtime/")
+        if here == "runtime" and any(within(name, tool) for tool in ABOVE_RUNTIME):
+            found.append(f"{module} imports {name}: runtime/ imports none of {', '.join(ABOVE_RUNTIME)}")
         if here in CORE and name.startswith(PACKAGE + ".") and len(found) == before:
             if not any(within(name, allowed) for allowed in CORE + SHARED):
                 found.append(f"{module} imports {name}: the core imports only itself and {', '.join(SHARED)}")
@@ -133,7 +142,11 @@ def test_the_runtime_and_the_core_are_ros_free_and_ros_holds_the_rclpy_modules()
     # a library module importing the command layer, or a ROS-free module through an absolute name
     ("garment_sim_ros.benchmarking", "from .commands.simulate import make_character\n",
      ["garment_sim_ros.commands.simulate"]),
-    ("garment_sim_ros.markers", "import garment_sim_ros.ros.marker_objects\n", ["garment_sim_ros.ros.marker_objects"]),
+    ("garment_sim_ros.runtime.markers", "import garment_sim_ros.ros.marker_objects\n",
+     ["garment_sim_ros.ros.marker_objects"]),
+    # the library below the runtime reaching up into it, the runtime reaching up to the tools above it
+    ("garment_sim_ros.dressing", "from .runtime.settings import solver_params\n", ["garment_sim_ros.runtime.settings"]),
+    ("garment_sim_ros.runtime.crowd", "from ..benchmarking import progress\n", ["garment_sim_ros.benchmarking"]),
     # rclpy in a command: the commands go through ros/
     ("garment_sim_ros.commands.demo", "def run():\n    from rclpy.context import Context\n", ["rclpy.context"]),
 ])
@@ -146,7 +159,8 @@ def test_the_checker_catches_a_planted_violation(module, source, expected):
     ("garment_sim_ros.ros.node", "import rclpy\nfrom ..runtime.settings import PARAMETER_ROWS\n"),
     ("garment_sim_ros.commands.demo", "from ..ros.in_process import node_and_player\n"),
     ("garment_sim_ros.cli", "from .commands import simulate\n"),
-    ("garment_sim_ros.markers", "from .runtime.marker_cdr import MarkerData\n"),
+    ("garment_sim_ros.runtime.markers", "from .marker_cdr import MarkerData\nfrom ..shading import BODY_RGB\n"),
+    ("garment_sim_ros.warmup", "from .runtime.markers import frame_markers\n"),
     ("garment_sim_ros.cloth.model", "from ..params import SolverParams\nfrom ..body.skeleton import Skeleton\n"),
     ("garment_sim_ros.runtime.bag_io", "from rosbags.rosbag2 import Reader\n"),  # rosbags is not ROS
 ])

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from garment_sim_ros.markers import frame_markers, garment_marker, rgba, triangle_corners, volume_markers
 from garment_sim_ros.runtime.marker_cdr import SPHERE, TRIANGLE_LIST
+from garment_sim_ros.runtime.markers import frame_markers, garment_marker, rgba, triangle_corners, volume_markers
 
 # Two triangles sharing an edge: a unit square in the z = 1 plane.
 POSITIONS = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 1.0, 1.0], [0.0, 1.0, 1.0]])

@@ -51,7 +51,7 @@ CORE = 0.5  # an edge through the volume shrunk to half about its centre goes th
 def local_points(solver, volume: int, points: np.ndarray) -> np.ndarray:
     """Points of the simulation frame in the volume's local frame at the last substep's end."""
     collider = solver.collider
-    return (points - collider.substep_end_positions[volume]) @ collider.substep_end_rotations[volume]
+    return (points - collider.arrays.pos1[volume]) @ collider.arrays.rot1[volume]
 
 
 def edges_through_cores(solver, volumes: list[int], core: float = CORE) -> int:
@@ -87,7 +87,7 @@ def leg_rings_off(solver) -> int:
     are checked by ``edges_through_cores``."""
     collider = solver.collider
     return int(rings_off_the_legs(solver.model, solver.volumes, solver.state.positions,
-                                  collider.substep_end_positions, collider.substep_end_rotations).sum())
+                                  collider.arrays.pos1, collider.arrays.rot1).sum())
 
 
 def points_inside_leg_radius(solver, names: list[str], tolerance: float = TOLERANCE_M) -> int:
@@ -271,10 +271,11 @@ def test_a_contact_pulled_past_a_limbs_axis_goes_back_out_where_it_came_in(swept
     on the far side). Handled along its trajectory from the substep's start it goes back out on its
     own side; the memo's static push (radially, from where it is) puts it on the far side."""
     collider = limb_collider(1, collision_epsilon=0.0)
-    collider.cache[0] = 0  # in contact with the limb
+    contacts = collider.new_contacts()
+    contacts[0] = 0  # in contact with the limb
     x_start = np.array([[0.06, 0.0, 0.0]])
     x = np.array([[-0.02, 0.001, 0.0]])
-    collider.handle_contacts(x_start if swept else None, x, np.zeros((1, 3)), np.ones(1), 0.005)
+    collider.handle_contacts(x_start if swept else None, x, np.zeros((1, 3)), np.ones(1), 0.005, contacts)
     assert np.sign(x[0, 0]) == side and np.hypot(x[0, 0], x[0, 1]) == pytest.approx(0.05)
 
 

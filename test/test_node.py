@@ -28,9 +28,10 @@ from visualization_msgs.msg import Marker, MarkerArray
 from garment_sim_ros.body.pose_buffer import PoseBuffer
 from garment_sim_ros.params import DEFAULT_PARAMS, PARAMETERS
 from garment_sim_ros.ros.node import GarmentSimNode, params_file_from_args
-from garment_sim_ros.runtime.character_loop import BONE_CHECK_S, CharacterLoop, Status
+from garment_sim_ros.runtime.character_loop import CharacterLoop, Status
 from garment_sim_ros.runtime.params_file import ParamsFileError, node_parameters, read_node_parameters
 from garment_sim_ros.runtime.settings import ALL_PARAMETERS, NODE_PARAMETERS, check_value
+from garment_sim_ros.runtime.skeleton_setup import BONE_CHECK_S
 from garment_sim_ros.runtime.tf_input import ingest, seconds_to_stamp, stamp_seconds
 
 CONFIG = Path(__file__).resolve().parents[1] / "config" / "garment_sim.yaml"

@@ -14,8 +14,10 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import psutil
@@ -28,14 +30,17 @@ from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import Marker
 
 from garment_sim_ros.body.pose_buffer import PoseBuffer, SampleStatus
+from garment_sim_ros.cloth.materials import MATERIALS
 from garment_sim_ros.cloth.solver import GarmentSolver
 from garment_sim_ros.params import DEFAULT_PARAMS
 from garment_sim_ros.ros.diagnostics import level_and_message
-from garment_sim_ros.runtime.character_loop import BONE_CHECK_S, CLOCK_JUMP_BACK_S, CharacterLoop, Status
+from garment_sim_ros.runtime.character_loop import CLOCK_JUMP_BACK_S, CharacterLoop, Status
+from garment_sim_ros.runtime.skeleton_setup import BONE_CHECK_S
 from garment_sim_ros.runtime.tf_input import seconds_to_stamp
 
 FRAME = 1.0 / 60.0
 NAMES = CHARACTER.skeleton.names
+CAPE = Path(__file__).resolve().parents[1] / "config" / "garments" / "cape.yaml"
 
 
 def garment_points(probe: Probe) -> list[np.ndarray]:
@@ -239,6 +244,35 @@ def step_until_running(loop: CharacterLoop, t: float, frames: int, **feed_option
     return t
 
 
+def test_the_frame_touches_no_file_and_a_saved_spec_dresses_again_at_the_next_check(tmp_path, monkeypatch):
+    """Issue 14: the loop looked at the worn garments' spec files every frame. The frame touches no file;
+    ``check_specs`` (the node's file-watch timer) sees the save and the next frame dresses the new garment."""
+    shutil.copy(CAPE.with_suffix(".obj"), tmp_path / "cape.obj")
+    spec = tmp_path / "cape.yaml"
+    spec.write_text(CAPE.read_text())
+    loop = CharacterLoop(PoseBuffer("world", max_age_s=0.2), DEFAULT_PARAMS, [str(spec)], 1.0,
+                         catch_up_wall_s=math.inf)
+    t = step_until_running(loop, 1.0, 8 + round(BONE_CHECK_S / FRAME))
+    first = loop.character
+    assert loop.status == Status.RUNNING and not loop.check_specs()  # nothing saved: nothing to do
+    stamp = spec.stat().st_mtime
+    spec.write_text(spec.read_text().replace("material: cotton_shirting", "material: denim"))
+    os.utime(spec, (stamp + 1.0, stamp + 1.0))  # a new modification time, however coarse the clock
+    looked, stat = [], os.stat
+    monkeypatch.setattr(os, "stat", lambda path, *args, **kwargs: looked.append(str(path)) or stat(path, *args,
+                                                                                                  **kwargs))
+    for _ in range(3):
+        feed(loop.buffer, t)
+        assert loop.frame(t) is not None
+        t += FRAME
+    monkeypatch.undo()
+    assert not [path for path in looked if path.startswith(str(tmp_path))] and loop.character is first
+    assert loop.check_specs() and loop.character is None
+    t = step_until_running(loop, t, 5)
+    assert loop.status == Status.RUNNING and loop.character is not first
+    assert loop.character.solvers[0].params.areal_density == MATERIALS["denim"]["areal_density"]
+
+
 def test_the_clock_jumping_back_forgets_the_old_stamps_and_dresses_again():
     loop, t = running_loop(start=20.0)
     t = 20.0 - 5 * CLOCK_JUMP_BACK_S  # a looped bag or a sim time reset
@@ -385,7 +419,7 @@ def test_a_frame_time_that_goes_back_a_little_is_folded_into_the_next_counted_no
     lines said "frame time ... is not after the last frame's")."""
     logged = []
     loop, t = running_loop()
-    loop.logger = type("Logger", (), {level: lambda self, m, level=level: logged.append((level, m))
+    loop.events.logger = type("Logger", (), {level: lambda self, m, level=level: logged.append((level, m))
                                       for level in ("info", "warning", "error")})()
     feed(loop.buffer, t)
     assert loop.frame(t) is not None

@@ -174,3 +174,33 @@ def test_a_step_that_goes_non_finite_inside_is_restored(monkeypatch):
     report = solver.advance(frame_after(solver))
     assert report.recovery == "restored"
     np.testing.assert_array_equal(solver.state.positions, good)
+
+
+def test_a_restored_step_puts_back_the_whole_garment_state_contacts_included(monkeypatch):
+    """The guard keeps a copy of the ``ClothState`` -- positions, velocities, the collision's per-point contact
+    cache, time, lag -- and puts it back whole: after a step gone non-finite on a walking body, the contacts
+    are the ones from before the step, not those the bad step rewrote."""
+    from garment_sim_ros.body.sources import procedural_source
+    from garment_sim_ros.dressing import make_character
+
+    source = procedural_source("walk")
+    character = make_character(source.rest_pose, source.joint_map, ["pants"], DEFAULT_PARAMS, 0.5)
+    character.dress(source.pose(0.0), 0.0, source.motion(0.0))
+    for frame in range(1, 9):  # the walk's legs reach the trousers from frame 8 on
+        character.step(source.pose(frame / 30), source.motion(frame / 30), frame / 30)
+    solver = character.solvers[0]
+    before = solver.state.copy()
+    assert (before.contacts >= 0).any()  # the trousers touch the body
+    guard, written = solver._guard, []
+
+    def poisoned(report, last_good, frame):  # fault injection: the step ends with a point not finite
+        written.append(solver.state.contacts.copy())
+        solver.state.positions[-1, 0] = math.nan
+        guard(report, last_good, frame)
+    monkeypatch.setattr(solver, "_guard", poisoned)
+    report = character.step(source.pose(9 / 30), source.motion(9 / 30), 9 / 30)[0]
+    assert report.recovery == "restored"
+    assert not np.array_equal(written[0], before.contacts)  # the bad step did rewrite them
+    np.testing.assert_array_equal(solver.state.contacts, before.contacts)
+    np.testing.assert_array_equal(solver.state.positions, before.positions)
+    assert np.all(solver.state.velocities == 0.0) and solver.state.time == 9 / 30

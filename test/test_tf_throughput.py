@@ -33,8 +33,9 @@ from garment_sim_ros.body.pose_buffer import PoseBuffer
 from garment_sim_ros.body.sources import bvh_source, procedural_source
 from garment_sim_ros.params import DEFAULT_PARAMS
 from garment_sim_ros.rerun_log import volume_ellipsoids
-from garment_sim_ros.runtime.character_loop import BONE_CHECK_S, CharacterLoop, Status
+from garment_sim_ros.runtime.character_loop import CharacterLoop, Status
 from garment_sim_ros.runtime.marker_cdr import DELETEALL, SPHERE
+from garment_sim_ros.runtime.skeleton_setup import BONE_CHECK_S
 from garment_sim_ros.runtime.tf_input import (
     TFDecoder,
     TransformBatch,

@@ -26,6 +26,7 @@ import math
 import re
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -169,49 +170,44 @@ class _Lines:
         self.pos += 1
         return item
 
+    def expect(self, what: str, ok: Callable[[list[str]], bool], message: str) -> tuple[int, list[str]]:
+        """The next line (``what`` names it at the end of the file); unless ``ok(tokens)``, refused with
+        ``message`` and what the line says."""
+        line, tokens = self.next(what)
+        if not ok(tokens):
+            raise self.error(line, f"{message}, got {' '.join(tokens)!r}")
+        return line, tokens
+
 
 def _parse_floats(lines: _Lines, line: int, tokens: list[str], what: str) -> np.ndarray:
-    try:
-        return np.array([float(t) for t in tokens])
-    except ValueError:
-        bad = next(t for t in tokens if not _is_float(t))
-        raise lines.error(line, f"{what}: {bad!r} is not a number") from None
-
-
-def _is_float(token: str) -> bool:
-    try:
-        float(token)
-    except ValueError:
-        return False
-    return True
+    values = []
+    for token in tokens:
+        try:
+            values.append(float(token))
+        except ValueError:
+            raise lines.error(line, f"{what}: {token!r} is not a number") from None
+    return np.array(values)
 
 
 def _parse_hierarchy(lines: _Lines) -> list[_Joint]:
-    line, tokens = lines.next("HIERARCHY")
-    if tokens != ["HIERARCHY"]:
-        raise lines.error(line, f"expected 'HIERARCHY', got {' '.join(tokens)!r}")
-    line, tokens = lines.next("ROOT")
-    if tokens[0] != "ROOT" or len(tokens) != 2:
-        raise lines.error(line, f"expected 'ROOT <name>', got {' '.join(tokens)!r}")
+    lines.expect("HIERARCHY", lambda tokens: tokens == ["HIERARCHY"], "expected 'HIERARCHY'")
+    line, tokens = lines.expect("ROOT", lambda tokens: tokens[0] == "ROOT" and len(tokens) == 2,
+                                "expected 'ROOT <name>'")
     joints: list[_Joint] = []
     _parse_joint(lines, joints, tokens[1], -1, line, end_site=False)
     return joints
 
 
 def _parse_joint(lines: _Lines, joints: list[_Joint], name: str, parent: int, line: int, end_site: bool) -> None:
-    brace_line, tokens = lines.next("'{'")
-    if tokens != ["{"]:
-        raise lines.error(brace_line, f"expected '{{' after joint {name!r}, got {' '.join(tokens)!r}")
-    offset_line, tokens = lines.next("OFFSET")
-    if tokens[0] != "OFFSET" or len(tokens) != 4:
-        raise lines.error(offset_line, f"joint {name!r}: expected 'OFFSET x y z', got {' '.join(tokens)!r}")
+    lines.expect("'{'", lambda tokens: tokens == ["{"], f"expected '{{' after joint {name!r}")
+    offset_line, tokens = lines.expect("OFFSET", lambda tokens: tokens[0] == "OFFSET" and len(tokens) == 4,
+                                       f"joint {name!r}: expected 'OFFSET x y z'")
     offset = _parse_floats(lines, offset_line, tokens[1:], f"joint {name!r} OFFSET")
     channels: list[str] = []
     if not end_site:
-        channel_line, tokens = lines.next("CHANNELS")
-        if tokens[0] != "CHANNELS" or len(tokens) < 2 or not tokens[1].isdigit():
-            raise lines.error(channel_line, f"joint {name!r}: expected 'CHANNELS <count> <names...>', "
-                                            f"got {' '.join(tokens)!r}")
+        channel_line, tokens = lines.expect(
+            "CHANNELS", lambda tokens: tokens[0] == "CHANNELS" and len(tokens) >= 2 and tokens[1].isdigit(),
+            f"joint {name!r}: expected 'CHANNELS <count> <names...>'")
         channels = tokens[2:]
         if int(tokens[1]) != len(channels):
             raise lines.error(channel_line, f"joint {name!r}: CHANNELS says {tokens[1]} but lists {len(channels)}")
@@ -239,16 +235,12 @@ def _parse_joint(lines: _Lines, joints: list[_Joint], name: str, parent: int, li
 
 
 def _parse_motion(lines: _Lines, channel_count: int) -> tuple[np.ndarray, float]:
-    line, tokens = lines.next("MOTION")
-    if tokens != ["MOTION"]:
-        raise lines.error(line, f"expected 'MOTION' after the hierarchy, got {' '.join(tokens)!r}")
-    line, tokens = lines.next("'Frames: <count>'")
-    if len(tokens) != 2 or tokens[0] != "Frames:" or not tokens[1].isdigit() or int(tokens[1]) < 1:
-        raise lines.error(line, f"expected 'Frames: <count >= 1>', got {' '.join(tokens)!r}")
+    lines.expect("MOTION", lambda tokens: tokens == ["MOTION"], "expected 'MOTION' after the hierarchy")
+    line, tokens = lines.expect("'Frames: <count>'", lambda tokens: len(tokens) == 2 and tokens[0] == "Frames:"
+                                and tokens[1].isdigit() and int(tokens[1]) >= 1, "expected 'Frames: <count >= 1>'")
     frame_count = int(tokens[1])
-    line, tokens = lines.next("'Frame Time: <seconds>'")
-    if len(tokens) != 3 or tokens[:2] != ["Frame", "Time:"]:
-        raise lines.error(line, f"expected 'Frame Time: <seconds>', got {' '.join(tokens)!r}")
+    line, tokens = lines.expect("'Frame Time: <seconds>'", lambda tokens: len(tokens) == 3
+                                and tokens[:2] == ["Frame", "Time:"], "expected 'Frame Time: <seconds>'")
     frame_time = float(_parse_floats(lines, line, tokens[2:], "Frame Time")[0])
     if not (math.isfinite(frame_time) and frame_time > 0.0):
         raise lines.error(line, f"Frame Time must be a positive number of seconds, got {tokens[2]!r}")

@@ -28,6 +28,9 @@ spacing, the head) is checked against human ranges relative to the stature
 (``PLAUSIBLE_PER_STATURE``); one outside is replaced by the anthropometric estimate and named in
 ``Body.estimated``, so a rig with odd bones still gets a human body (and says which parts were guessed).
 
+Motion. Given poses the body will be driven with (``fit_body(motion=...)``), a trunk volume an arm
+bone comes near in them is narrowed to this subject (``body.narrowing``).
+
 Sizes. Radii are anthropometric ratios of the skeleton's own lengths: limb radii of the bone's
 length, trunk widths of the hip-joint and shoulder-joint spacing, levels (waist, crotch,
 armpit) and the head of the stature ``H`` estimated from the leg (hip-knee-ankle = 0.491 H,
@@ -43,8 +46,8 @@ pose the legs are splayed about 20 deg, while garments are fitted to a standing 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
-from typing import Mapping
+from dataclasses import dataclass, field, replace
+from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -52,6 +55,7 @@ from ..collision.volumes import ELLIPSOID, SPHERE, Volume, VolumeSet
 from ..transforms import quat_conjugate, quat_from_matrix, quat_multiply, quat_rotate, yaw_quat
 from .joint_map import validate_joint_map
 from .measurements import BodyMeasurements
+from .narrowing import narrow_for_motion
 from .overrides import BodyOverrides, apply_overrides, check_overrides
 from .root import root_frame
 from .skeleton import SkeletonPose
@@ -121,6 +125,9 @@ class Body:
     joint_map: Mapping[str, str]
     rest_pose: SkeletonPose
     estimated: tuple[str, ...] = ()  # measurements out of human range, replaced by estimates (PLAUSIBLE_PER_STATURE)
+    # trunk volumes narrowed so the arm bones stay outside them in the motion fitted to: name -> scale on
+    # their cross-section (< 1); see ``body.narrowing``
+    narrowed: Mapping[str, float] = field(default_factory=dict)
 
 
 class _Fit:
@@ -410,7 +417,7 @@ def _frame_poses(pose: SkeletonPose, frames: tuple[str, ...]) -> tuple[np.ndarra
 
 
 def fit_body(rest_pose: SkeletonPose, joint_map: Mapping[str, str], detailed: bool = False,
-             overrides: BodyOverrides | Mapping | None = None) -> Body:
+             overrides: BodyOverrides | Mapping | None = None, motion: Sequence[SkeletonPose] = ()) -> Body:
     """Fit the bounding volumes and measurements of the body the skeleton's rest pose defines.
 
     ``rest_pose``: the canonical standing pose (``body.canonical.canonical_pose``); volumes are
@@ -418,13 +425,20 @@ def fit_body(rest_pose: SkeletonPose, joint_map: Mapping[str, str], detailed: bo
     ``overrides``: a ``BodyOverrides`` (``load_body_overrides``) or a mapping
     ``{volume: {radii: [x, y, z], cut: [lo, hi], offset_position: [x, y, z]}}`` (metres, the
     volume's local frame / its joint frame), applied after fitting.
+    ``motion``: poses of the same skeleton the body will be driven with (``MotionSource.fit_poses``: the
+    pose it is dressed on, as in the node); trunk volumes an arm bone comes near in them are narrowed
+    (``body.narrowing``).
     """
     joint_map = validate_joint_map(joint_map, rest_pose.skeleton)
+    if any(pose.skeleton != rest_pose.skeleton for pose in motion):
+        raise ValueError("fit_body: the motion's poses must be of the rest pose's skeleton")
     if not isinstance(overrides, BodyOverrides):
         overrides = check_overrides({"volumes": overrides} if overrides else None, "overrides")
     fit = _Fit(rest_pose, joint_map)
     volumes, levels, estimated = _fit_volumes(fit, detailed)
+    volumes, narrowed = narrow_for_motion(volumes, joint_map, motion, levels["stature"])
     order = DETAILED_VOLUMES if detailed else BASIC_VOLUMES
     volumes.sort(key=lambda v: order.index(v.name))
     volume_set = VolumeSet(tuple(apply_overrides(volumes, overrides)))
-    return Body(volume_set, _measure(fit, volume_set, levels), joint_map, rest_pose, tuple(estimated))
+    return Body(volume_set, _measure(fit, volume_set, levels), joint_map, rest_pose, tuple(estimated), narrowed)
+

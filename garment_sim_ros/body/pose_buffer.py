@@ -23,84 +23,32 @@ the same as ``transforms.py``'s poses).
 - Bad input is refused with a message and counted, never raised: ``rejected[reason]`` counts
   refusals (``non_finite``, ``malformed``, ``bad_frame_name``, ``zero_quaternion``,
   ``non_unit_quaternion``, ``cycle``, ``too_old``, ``from_future`` (given the receiver's clock),
-  ``too_many_frames``; ``root_outlier``, see below; and ``degenerate_root``, a
+  ``too_many_frames``; ``root_outlier``, a lone jump, see below; and ``degenerate_root``, a
   ``root_motion`` whose hips coincide horizontally); ``adjusted[what]`` counts
   accepted input that was changed or replaced something (``normalised_quaternion``,
   ``reparented``: a child with a new parent, latest wins and the old history is dropped;
   ``static_dynamic_switch``; ``out_of_order``; ``duplicate_replaced``; ``jump_confirmed``).
-- A jump counts only when the next sample confirms it: a dynamic sample whose translation is more
-  than ``jump_distance_m`` from the newest, faster than ``MAX_FRAME_SPEED``, is held back (not
-  sampled) until the child's next sample. Near it, the jump is real (a clip looping back, a
-  teleport): the history before it is dropped, its place is another, and the kinematics must not
-  see thousands of m/s^2 across it (``jump_confirmed``). Not near it, it was a lone outlier (one bad
-  root sample 25 m away): dropped (``root_outlier``; in practice only roots move that far, a joint's
-  offset does not). A gap in the stamps (a stalled publisher) is no jump: the speed stays a body's.
+- A root sample that jumped (``body.jumps``) is held back until the next sample confirms the jump
+  (the history before it dropped) or shows it a lone outlier (dropped).
 """
 
 from __future__ import annotations
 
 import math
 from collections import Counter
-from dataclasses import dataclass
-from enum import Enum
 from numbers import Real
 from typing import Mapping, Sequence
 
 import numpy as np
 
 from ..transforms import IDENTITY_QUAT, compose, inverse, quat_slerp
+from .jumps import JumpHold, is_jump
 from .root import fit_root_kinematics, root_frame
 from .sample_series import SampleSeries
+from .samples import PoseSample, RootMotion, SampleStatus
 from .skeleton import Skeleton, SkeletonPose, compose_tree
 
 _UNIT_SILENT = 1e-3  # |q| within this of 1 is rounding: normalised without being counted
-MAX_FRAME_SPEED = 12.0  # m/s, faster than any sprinter: a translation faster than this between samples jumped
-
-
-class SampleStatus(Enum):
-    """How a sample was obtained, in increasing severity."""
-
-    OK = "ok"  # interpolated between stamps (or only static transforms)
-    EXTRAPOLATED = "extrapolated"  # past the newest stamp (bounded) or before the oldest (held)
-    STALE = "stale"  # the newest data is older than max_age_s; the pose is the held extrapolation
-    MISSING_FRAMES = "missing_frames"  # some frames are unknown or not connected to the fixed frame
-    DEGENERATE = "degenerate"  # root_motion only: the hips coincide horizontally, no heading (counted)
-    NO_DATA = "no_data"  # nothing received yet
-
-
-@dataclass(frozen=True)
-class PoseSample:
-    pose: SkeletonPose | None  # None for MISSING_FRAMES and NO_DATA
-    status: SampleStatus
-    missing: tuple[str, ...]  # requested frames that could not be composed
-    age_s: float  # T minus the newest stamp of the stalest dynamic frame used (< 0: T inside the data)
-    detail: str = ""  # human-readable reason for a status other than OK
-
-
-@dataclass(frozen=True)
-class RootMotion:
-    """Root kinematics at time ``T`` (fixed frame, SI units). When ``status`` is MISSING_FRAMES,
-    NO_DATA or DEGENERATE the kinematic fields are None."""
-
-    status: SampleStatus
-    dt: float  # the frame time the increments are for, s
-    samples: int  # samples in the least-squares fit (0: no dynamic data, velocities are zero)
-    position: np.ndarray | None  # (3,) pelvis position at T, m
-    yaw: float | None  # heading at T, rad, in (-pi, pi]
-    velocity: np.ndarray | None  # (3,) v0, m/s
-    acceleration: np.ndarray | None  # (3,) a0, m/s^2
-    yaw_rate: float | None  # rad/s
-    yaw_acceleration: float | None  # rad/s^2
-    detail: str = ""
-
-    @property
-    def dx(self) -> np.ndarray:
-        """Root translation over the frame, ``v0 dt + a0 dt^2 / 2`` (memo §4)."""
-        return self.velocity * self.dt + 0.5 * self.acceleration * self.dt ** 2
-
-    @property
-    def dyaw(self) -> float:
-        return self.yaw_rate * self.dt + 0.5 * self.yaw_acceleration * self.dt ** 2
 
 
 def _as_vector(value, size: int) -> list[float] | None:
@@ -152,13 +100,13 @@ class PoseBuffer:
         self.kinematics_window_s = float(kinematics_window_s)
         self.max_frames = int(max_frames)
         self.max_lead_s = float(max_lead_s)
-        self.jump_distance_m = float(jump_distance_m)
+        self.jump_distance_m = float(jump_distance_m)  # a root sample farther than this, and too fast, jumped
         self.rejected: Counter[str] = Counter()
         self.adjusted: Counter[str] = Counter()
+        self._jumps = JumpHold(self.adjusted, self.rejected)
         self._parent: dict[str, str] = {}
         self._static: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._dynamic: dict[str, SampleSeries] = {}
-        self._unconfirmed: dict[str, tuple[float, list[float], list[float]]] = {}  # a jump's first sample, by child
 
     # ------------------------------------------------------------------ input
 
@@ -216,7 +164,7 @@ class PoseBuffer:
             return self._reject("too_old", parent, child, f"stamp {stamp_s} is more than max_duration_s "
                                 f"({self.max_duration_s} s) behind the newest, {series.stamps[-1]}")
         rotation = [v / norm for v in rotation]
-        if self._held_as_jump(child, series, stamp_s, position, rotation):
+        if self._jumps.holds(child, series, stamp_s, position, rotation, self.jump_distance_m):
             return None
         outcome = series.insert(stamp_s, position, rotation)
         if outcome == "inserted":
@@ -252,14 +200,14 @@ class PoseBuffer:
             previous.append(index[-1] if index else i)
             index.append(i)
         distance = np.linalg.norm(translations - translations[previous], axis=1)
-        jumped = ((distance > self.jump_distance_m)
-                  & (distance > MAX_FRAME_SPEED * (stamps - stamps[previous]))).tolist()
+        jumped = is_jump(distance, stamps - stamps[previous], self.jump_distance_m).tolist()
         stored, refusals, slow = 0, [], []
+        held = self._jumps.held  # children with an unconfirmed jump
         for child, index in rows.items():
             series = self._dynamic.get(child)
             parent = parents[index[0]]
             if (series is None or self._parent.get(child) != parent or child in self._static
-                    or child in self._unconfirmed):
+                    or child in held):
                 slow.extend(index)
                 continue
             block = [stamp_list[i] for i in index]  # Python scalars: cheaper than numpy for a few rows
@@ -281,27 +229,6 @@ class PoseBuffer:
                 refusals.append(refusal)
         return stored, refusals
 
-    def _held_as_jump(self, child: str, series: SampleSeries, stamp_s: float, position: list[float],
-                      rotation: list[float]) -> bool:
-        """Settle the child's unconfirmed jump with this sample (confirmed, or dropped as an outlier);
-        True when this sample is itself a jump, held until the next one."""
-        held = self._unconfirmed.get(child)
-        if held is not None and stamp_s > held[0]:
-            del self._unconfirmed[child]
-            if math.dist(position, held[1]) <= self.jump_distance_m:
-                series.clear()  # the place before the jump is another: no interpolation or kinematics across it
-                series.insert(*held)
-                self.adjusted["jump_confirmed"] += 1
-                return False
-            self.rejected["root_outlier"] += 1
-        if len(series) == 0 or stamp_s <= series.newest:
-            return False
-        distance = math.dist(position, series.translations[-1])
-        if distance > self.jump_distance_m and distance > MAX_FRAME_SPEED * (stamp_s - series.newest):
-            self._unconfirmed[child] = (stamp_s, position, rotation)
-            return True
-        return False
-
     def _reject(self, reason: str, parent, child, why: str) -> str:
         self.rejected[reason] += 1
         return f"transform {parent!r} -> {child!r}: {why}"
@@ -316,7 +243,7 @@ class PoseBuffer:
         return []
 
     def _forget(self, child: str) -> None:
-        self._unconfirmed.pop(child, None)
+        self._jumps.forget(child)
         self._static.pop(child, None)
         self._dynamic.pop(child, None)
         self._parent.pop(child, None)

@@ -13,8 +13,8 @@ from typing import Callable
 
 import numpy as np
 
-from .pose_buffer import RootMotion, SampleStatus
 from .root import fit_root_kinematics, root_frame
+from .samples import RootMotion, SampleStatus
 from .skeleton import Skeleton, SkeletonPose
 
 GAITS = ("walk", "run", "fast")
@@ -39,6 +39,13 @@ class MotionSource:
     def loop_index(self, t: float) -> int:
         """Which pass through a looping clip time ``t`` falls in (0 for a source that does not loop)."""
         return 0 if self.period is None else math.floor(t / self.period)
+
+    def fit_poses(self) -> list[SkeletonPose]:
+        """The poses the body is fitted to (``body.fitting.fit_body(motion=...)``): the one it is dressed on,
+        at t = 0, as in the node, which has seen no more. (Fitted to every frame of a clip instead, the
+        acrobatic clips' trunks go to their slimmest bound for an arm that crosses them later, and the real
+        clips fared worse: README, "Real motion".)"""
+        return [self.pose(0.0)]
 
     def motion(self, t: float, window: float = MOTION_WINDOW_S) -> RootMotion:
         """Root motion at ``t`` from samples that never reach before the motion's start, past its end or

@@ -45,89 +45,11 @@ import numpy as np
 from ..params import DEFAULT_PARAMS, SolverParams
 from ..transforms import quat_conjugate, quat_multiply, transform_points, yaw_quat
 from . import kernels
+from .frame import ClothState, FrameInput, FrameReport
 from .model import BEND, SHEAR, STRUCTURAL, ClothModel
 from .motion_constraints import SkinBinding, limit_distance
 
 _NO_ROTATIONS = np.zeros((0, 4))
-
-
-@dataclass
-class ClothState:
-    """What changes every step (Warp's ``State``)."""
-
-    positions: np.ndarray  # (N, 3) simulation (root) frame, m
-    velocities: np.ndarray  # (N, 3) relative to the simulation frame, m/s
-    time: float = 0.0  # body time of the last frame, s
-    lag: float = 0.0  # how far the simulated time is behind the body's time, s
-
-    def copy(self) -> ClothState:
-        """An independent copy (the guard keeps one as the last good state)."""
-        return ClothState(self.positions.copy(), self.velocities.copy(), self.time, self.lag)
-
-
-@dataclass(frozen=True, kw_only=True)
-class FrameInput:
-    """The character between two frames (Warp's ``Control``); world frame, SI units. Keyword-only:
-    fourteen fields of like types are too easy to swap by position; ``between`` builds it from the
-    two ends' (root motion, frame poses) pairs.
-
-    ``frame_positions*``/``frame_rotations*`` are the poses of ``GarmentSolver.frames``, in that order.
-    """
-
-    t0: float  # s
-    t1: float  # s
-    root_position0: np.ndarray  # (3,) m, at t0
-    root_yaw0: float  # rad, at t0
-    root_position1: np.ndarray  # (3,) m, at t1
-    root_yaw1: float  # rad, at t1
-    root_velocity: np.ndarray  # (3,) v0 at t0, m/s
-    root_acceleration: np.ndarray  # (3,) a0, m/s^2
-    yaw_rate: float  # rad/s at t0
-    yaw_acceleration: float  # rad/s^2
-    frame_positions0: np.ndarray  # (F, 3) m, at t0
-    frame_rotations0: np.ndarray  # (F, 4) xyzw, at t0
-    frame_positions1: np.ndarray  # (F, 3) m, at t1
-    frame_rotations1: np.ndarray  # (F, 4) xyzw, at t1
-
-    @classmethod
-    def between(cls, *, t0: float, motion0, poses0: tuple[np.ndarray, np.ndarray], t1: float, motion1,
-                poses1: tuple[np.ndarray, np.ndarray]) -> FrameInput:
-        """From the root motions at both ends (``body.pose_buffer.RootMotion``: position, yaw, and at
-        the start velocity, acceleration, yaw rate and yaw acceleration: the memo's v0, a0) and the
-        frames' (positions, rotations) at both ends."""
-        return cls(t0=t0, t1=t1, root_position0=motion0.position, root_yaw0=motion0.yaw,
-                   root_position1=motion1.position, root_yaw1=motion1.yaw, root_velocity=motion0.velocity,
-                   root_acceleration=motion0.acceleration, yaw_rate=motion0.yaw_rate,
-                   yaw_acceleration=motion0.yaw_acceleration, frame_positions0=poses0[0],
-                   frame_rotations0=poses0[1], frame_positions1=poses1[0], frame_rotations1=poses1[1])
-
-
-@dataclass
-class FrameReport:
-    substeps: int = 0
-    substep_s: float = 0.0
-    simulated_s: float = 0.0
-    lag_s: float = 0.0
-    teleported: bool = False
-    integration_s: float = 0.0  # forces + explicit step + velocities (wall time)
-    correction_s: float = 0.0  # Provot length correction (wall time)
-    collision_s: float = 0.0  # contact + full collision handling (wall time)
-    static_hits: int = 0
-    dynamic_hits: int = 0
-    max_stretch: float = 0.0  # largest structural/shear length / rest length after the frame
-    # the step's guard (``GarmentSolver.advance``): "" (a good step), "restored" (the step went
-    # non-finite: the last good state is back) or "refitted" (runaway stretch: the rest shape at the new pose)
-    recovery: str = ""
-    # How well the garment stays on after the frame (``garment_sim_ros.quality``); filled by
-    # ``DressedCharacter.step``, which has the pose (0 where the solver runs alone).
-    max_depth_m: float = 0.0  # (a) deepest free point inside a body volume, m
-    bones_through: int = 0  # (b) limb bone segments (thighs, shins, upper arms, forearms, spine) crossing a triangle
-    legs_off: int = 0  # (c) trouser legs (limb tubes) with a ring round none of their limb's volumes; 0 without
-    structural_stretch_p99: float = 0.0  # (d) 99th percentile of structural spring length / rest length
-    structural_stretch_max: float = 0.0  # (d) largest structural length / rest length
-    shear_stretch_p99: float = 0.0  # (d) 99th percentile of shear spring length / rest length
-    shear_stretch_max: float = 0.0  # (d) largest shear length / rest length
-    layer_crossings: int = 0  # (f) edges of the garment crossing a triangle of one worn under it (outfits)
 
 
 @dataclass(frozen=True)
@@ -258,7 +180,7 @@ class GarmentSolver:
             from ..collision.collider import Collider
 
             self.collider = Collider(volumes, n, cache_size=min(2, len(volumes)))
-        self.state = ClothState(model.rest_positions.copy(), np.zeros((n, 3)))
+        self.state = ClothState(model.rest_positions.copy(), np.zeros((n, 3)), self._new_contacts())
         self.set_params(params)
 
     def set_params(self, params: SolverParams) -> None:
@@ -299,10 +221,18 @@ class GarmentSolver:
         """Put the garment at its rest shape around the root, attached points on their segments."""
         x = self.model.rest_positions.copy()
         x[self.model.attached] = self._attachment_targets(root_position, root_yaw, frame_positions, frame_rotations)
-        self.state = ClothState(x, np.zeros_like(x), time=time_s)
+        # The contacts stay: a garment re-fitted after a runaway (``DressedCharacter``) is reset in motion, its
+        # points still near the volumes they touched, which the contact handling then keeps them out of.
+        self.state = ClothState(x, np.zeros_like(x), self.state.contacts, time=time_s)
         if self.volumes is not None and len(self.volumes):  # the motion constraints' rest binding
             self.skin = SkinBinding(x, self.volumes, *self._local_volume_poses(root_position, root_yaw, frame_positions,
                                                                               frame_rotations))
+
+    def _new_contacts(self) -> np.ndarray:
+        """An empty contact cache for ``ClothState.contacts`` (no column without volumes)."""
+        if self.collider is None:
+            return np.zeros((self.model.num_points, 0), dtype=np.int64)
+        return self.collider.new_contacts()
 
     def world_positions(self, root_position, root_yaw) -> np.ndarray:
         return transform_points(np.asarray(root_position, float), yaw_quat(root_yaw), self.state.positions)
@@ -321,9 +251,9 @@ class GarmentSolver:
                                               frame.frame_positions1, frame.frame_rotations1)
         count, h = substep_plan(dt, params, volume_travel(self.volumes, *poses0, *poses1) if poses0 else 0.0)
         report = FrameReport(substeps=count, substep_s=h, simulated_s=count * h)
-        last_good = state.copy()  # for the guard at the end
         state.lag += dt - count * h
         report.lag_s = state.lag
+        last_good = state.copy()  # for the guard at the end (a bad step keeps the frame's lag and time)
         if not _finite_frame(frame):  # a bad estimate upstream: no step at all (collision would launder NaN)
             state.velocities[...] = 0.0
             state.time = frame.t1
@@ -382,7 +312,7 @@ class GarmentSolver:
                     report.correction_s += clock() - tic
                 if iteration == 0 and collider is not None:
                     tic = clock()
-                    collider.handle_contacts(self._x_start, x, v, const.inv_mass, h)
+                    collider.handle_contacts(self._x_start, x, v, const.inv_mass, h, state.contacts)
                     report.collision_s += clock() - tic
             if constrained:
                 limit_distance(x, skinned0, skinned1, f1, params.max_distance, const.inv_mass)
@@ -401,13 +331,13 @@ class GarmentSolver:
             report.dynamic_hits = collider.dynamic_hits
         self._measure_stretch(report)
         self._guard(report, last_good, frame)
-        state.time = frame.t1
+        self.state.time = frame.t1
         return report
 
     def _collide(self, x: np.ndarray, v: np.ndarray, h: float) -> None:
         """Full collision handling of a substep's end (``Collider.resolve_substep``)."""
-        self.collider.resolve_substep(self._x_start, x, v, self.constants.inv_mass, h, self._edges, self._edge_rest,
-                                      self._triangles)
+        self.collider.resolve_substep(self._x_start, x, v, self.constants.inv_mass, h, self.state.contacts,
+                                      self._edges, self._edge_rest, self._triangles)
 
     def _measure_stretch(self, report: FrameReport) -> None:
         """``self.stretches`` and ``report.max_stretch`` for the garment as it is now."""
@@ -470,9 +400,9 @@ class GarmentSolver:
             x[attached] = targets
             report.recovery = "refitted"
         if not np.isfinite(x).all():  # the step, or the new pose the re-fit used, was not finite
-            x[...] = last_good.positions
+            self.state = last_good  # a copy of the whole garment state (``ClothState``), contacts included
             report.recovery = "restored"
-        v[...] = 0.0
+        self.state.velocities[...] = 0.0
         self._measure_stretch(report)
 
 

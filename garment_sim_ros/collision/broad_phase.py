@@ -4,7 +4,7 @@ From cheap to exact, each test only rejecting pairs the exact handling would mis
 (``reach_radii``: how far any point of it moves in the substep, plus its bounding radius), its local
 box (``local_boxes``) against the point's relative trajectory p0' -> p1 in the volume's frame, and,
 for cached pairs, the bounding sphere of that trajectory (``broad_phase_rejects``). Arrays as in
-``collision.kernels``: positions (V, 3) m, rotation matrices (V, 3, 3), quaternions (V, 4) xyzw.
+``collision.volume_arrays`` (``vol``): positions (V, 3) m, rotation matrices (V, 3, 3), quaternions (V, 4) xyzw.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from .volumes import CAPSULE, ELLIPSOID
 # ----------------------------------------------------------------------------- broad phase
 
 @kernel
-def broad_phase_rejects(bounding_radii, pos0, pos1, displacement, chord, v, xs, x, i):
+def broad_phase_rejects(vol, v, xs, x, i):
     """True when point i's simplified relative trajectory cannot reach volume v.
 
     With a = |p0 - c0| (start, start pose), b = |p1 - c1| (end, end pose) and L an upper bound
@@ -27,21 +27,25 @@ def broad_phase_rejects(bounding_radii, pos0, pos1, displacement, chord, v, xs, 
     segment p0' -> p1 is at least (a + b - L) / 2 from the centre. That covers the static test
     too (b >= (a + b - L) / 2), so rejecting never changes a result.
     """
+    pos0, pos1 = vol.pos0, vol.pos1
     a = math.sqrt((xs[i, 0] - pos0[v, 0]) ** 2 + (xs[i, 1] - pos0[v, 1]) ** 2 + (xs[i, 2] - pos0[v, 2]) ** 2)
     b = math.sqrt((x[i, 0] - pos1[v, 0]) ** 2 + (x[i, 1] - pos1[v, 1]) ** 2 + (x[i, 2] - pos1[v, 2]) ** 2)
     sweep = math.sqrt((x[i, 0] - xs[i, 0]) ** 2 + (x[i, 1] - xs[i, 1]) ** 2 + (x[i, 2] - xs[i, 2]) ** 2)
-    bound = sweep + displacement[v] + a * chord[v]
-    return 0.5 * (a + b - bound) > bounding_radii[v] * (1.0 + 1e-9) + 1e-12
+    bound = sweep + vol.displacement[v] + a * vol.chord[v]
+    return 0.5 * (a + b - bound) > vol.bounding_radii[v] * (1.0 + 1e-9) + 1e-12
 
 
 @kernel
-def out_of_reach(reach, pos1, v, x, i):
+def out_of_reach(vol, v, x, i):
     """Beyond ``reach_radii``: point i's substep cannot touch volume v."""
+    pos1, reach = vol.pos1, vol.reach
     return (x[i, 0] - pos1[v, 0]) ** 2 + (x[i, 1] - pos1[v, 1]) ** 2 + (x[i, 2] - pos1[v, 2]) ** 2 > reach[v] * reach[v]
 
 
 @kernel
-def outside_bounding_sphere(bounding_radii, pos, v, x, i):
+def outside_bounding_sphere(vol, v, x, i):
+    """Point i is outside volume v's bounding sphere at the end pose."""
+    pos, bounding_radii = vol.pos1, vol.bounding_radii
     d2 = (x[i, 0] - pos[v, 0]) ** 2 + (x[i, 1] - pos[v, 1]) ** 2 + (x[i, 2] - pos[v, 2]) ** 2
     return d2 > bounding_radii[v] * bounding_radii[v]
 
@@ -93,13 +97,13 @@ def substep_motion(pos0, rot0, pos1, rot1, displacement, chord):
 
 
 @kernel
-def reach_radii(bounding_radii, displacement, chord, xs, x, inv_mass, reach):
+def reach_radii(vol, xs, x, inv_mass):
     """Per volume, the distance from its end-pose centre beyond which no point's substep can touch it.
 
     The relative trajectory ends at p1 and is at most L = s + d + a c long (``broad_phase_rejects``),
     with a <= b + s + d (triangle inequality), so it keeps at least b - L from the centre; it cannot
     reach the bounding sphere R when b (1 - c) > R + (s + d)(1 + c), with s the largest sweep of any
-    free point this substep. One squared distance per pair then rejects the far ones."""
+    free point this substep. One squared distance per pair then rejects the far ones. Writes ``vol.reach``."""
     sweep2 = 0.0
     for i in range(x.shape[0]):
         if inv_mass[i] == 0.0:
@@ -108,6 +112,7 @@ def reach_radii(bounding_radii, displacement, chord, xs, x, inv_mass, reach):
         if d2 > sweep2:
             sweep2 = d2
     sweep = math.sqrt(sweep2)
+    bounding_radii, displacement, chord, reach = vol.bounding_radii, vol.displacement, vol.chord, vol.reach
     for v in range(bounding_radii.shape[0]):
         c = chord[v]
         if c >= 0.5:

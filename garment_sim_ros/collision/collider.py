@@ -2,9 +2,13 @@
 
 Per frame the solver calls ``begin_frame`` with the volumes' poses at the frame's start and
 end; per substep ``begin_substep`` (poses interpolated to the substep's ends),
-``handle_contacts`` inside the length correction (memo §3 step 4) and ``handle_all`` after
-it (step 5). The arithmetic is in ``kernels``; this class owns the preallocated buffers,
-the per-point cache of recently hit volumes, and the hit counters.
+``handle_contacts`` inside the length correction (memo §3 step 4) and ``resolve_substep`` after
+it (step 5 and beyond). The arithmetic is in ``kernels``; this class owns the volumes' arrays
+(``VolumeArrays``, poses rewritten per substep), scratch buffers and the frame's hit counters.
+The garment's own collision state, the per-point cache of recently hit volumes (``contacts``), is
+the caller's (``ClothState.contacts``), passed to every call, so that a copy of the garment's
+state is all of it. Arguments in one order everywhere: start positions, positions, velocities,
+inverse masses, substep length, contacts, then the cloth's topology.
 """
 
 from __future__ import annotations
@@ -13,6 +17,8 @@ import numpy as np
 
 from ..params import DEFAULT_PARAMS, SolverParams
 from . import broad_phase, crossing, kernels
+from .response import MODE_ADAPTIVE, MODE_DYNAMIC, MODE_STATIC
+from .volume_arrays import VolumeArrays
 from .volumes import VolumeSet
 
 # ``parallel=None``: handle_all and handle_contacts spread the points over numba's threads from this many
@@ -21,7 +27,7 @@ from .volumes import VolumeSet
 PARALLEL_MIN_POINTS = 1500
 # handle_axes: passes over the triangles at most; moving a crossed triangle off a bone can cross a neighbour
 AXIS_PASSES = 16
-_MODES = {"adaptive": kernels.MODE_ADAPTIVE, "static": kernels.MODE_STATIC, "dynamic": kernels.MODE_DYNAMIC}
+_MODES = {"adaptive": MODE_ADAPTIVE, "static": MODE_STATIC, "dynamic": MODE_DYNAMIC}
 
 
 class Collider:
@@ -37,44 +43,34 @@ class Collider:
                              f"got {cache_size!r}")
         self.volumes = volumes
         self.n_points = int(n_points)
+        self.cache_size = int(cache_size)
         n_volumes = len(volumes)
-        self._kinds = np.ascontiguousarray(volumes.kinds, dtype=np.int64)
-        self._radii = np.ascontiguousarray(volumes.radii, dtype=np.float64)
-        self._cuts = np.ascontiguousarray(volumes.cuts, dtype=np.float64)
-        self._bounding_radii = np.ascontiguousarray(volumes.bounding_radii, dtype=np.float64)
-        self._switch_radii = np.ascontiguousarray(volumes.switch_radii, dtype=np.float64)
-        self._bones = np.ascontiguousarray(volumes.bones, dtype=np.float64)
-        # frame poses (quaternions) and the substep's end poses (matrices) for the kernels
+        self.arrays = VolumeArrays.at_rest(volumes)  # the kernels' view; poses at the substep's ends
+        # as the kernels take them from Python (a plain tuple: see ``collision.kernels``); and with every
+        # broad-phase test passing, the same poses
+        self._packed, self._packed_unbounded = tuple(self.arrays), tuple(self.arrays.unbounded())
+        # frame poses (quaternions), interpolated per substep into the arrays' matrices
         self._frame_pos = np.zeros((2, n_volumes, 3))
         self._frame_quat = np.zeros((2, n_volumes, 4))
         self._frame_quat[:, :, 3] = 1.0
-        self.substep_start_positions = np.zeros((n_volumes, 3))
-        self.substep_start_rotations = np.tile(np.eye(3), (n_volumes, 1, 1))
-        self.substep_end_positions = np.zeros((n_volumes, 3))
-        self.substep_end_rotations = np.tile(np.eye(3), (n_volumes, 1, 1))
-        self._displacement = np.zeros(n_volumes)
-        self._chord = np.zeros(n_volumes)
-        self._reach = np.zeros(n_volumes)  # per substep: beyond this from a volume no point can touch it
-        # per point: volumes recently hit, most recent first (-1 = empty); scratch for the kernel
-        self.cache = np.full((self.n_points, int(cache_size)), -1, dtype=np.int64)
-        self._scratch = np.zeros((self.n_points, 2 * int(cache_size)), dtype=np.int64)
+        self._scratch = np.zeros((self.n_points, 2 * self.cache_size), dtype=np.int64)  # handle_all's
         self._depths = np.zeros(self.n_points)
-        self._boxes = np.zeros((n_volumes, 6))  # local frame, see broad_phase.local_boxes
-        broad_phase.local_boxes(self._kinds, self._radii, self._cuts, self._boxes)
-        self._unbounded_radii = np.full(n_volumes, np.inf)
-        self._unbounded_boxes = np.repeat([[-np.inf] * 3 + [np.inf] * 3], n_volumes, axis=0)
         if parallel is None:
             parallel = self.n_points >= PARALLEL_MIN_POINTS
         self.parallel = bool(parallel)
-        self._last_h = 0.0
         self._checked_edges = None  # the last edge array handle_edges validated
         self._checked_triangles = None  # the last triangle array handle_axes validated
+        self._checked_contacts = None  # the last contact cache validated
         self._corners = np.zeros((3, 3))  # handle_axes' scratch
         self.use_broad_phase = True  # off only to check that it changes nothing
         self.static_hits = 0
         self.dynamic_hits = 0
         self.set_params(DEFAULT_PARAMS)
         self._frame_started = False
+
+    def new_contacts(self) -> np.ndarray:
+        """An empty contact cache: (n_points, cache_size) int64 volume indices, most recent first, -1 empty."""
+        return np.full((self.n_points, self.cache_size), -1, dtype=np.int64)
 
     # ------------------------------------------------------------------ set-up per run/frame/substep
     def set_params(self, params: SolverParams) -> None:
@@ -114,79 +110,53 @@ class Collider:
             raise ValueError(f"Collider.begin_substep: need 0 <= f0 < f1 <= 1, got f0={f0}, f1={f1}")
         a_pos, b_pos = self._frame_pos
         a_quat, b_quat = self._frame_quat
-        broad_phase.interpolate_poses(a_pos, a_quat, b_pos, b_quat, float(f0),
-                                  self.substep_start_positions, self.substep_start_rotations)
-        broad_phase.interpolate_poses(a_pos, a_quat, b_pos, b_quat, float(f1),
-                                  self.substep_end_positions, self.substep_end_rotations)
-        broad_phase.substep_motion(self.substep_start_positions, self.substep_start_rotations,
-                               self.substep_end_positions, self.substep_end_rotations,
-                               self._displacement, self._chord)
+        vol = self.arrays
+        broad_phase.interpolate_poses(a_pos, a_quat, b_pos, b_quat, float(f0), vol.pos0, vol.rot0)
+        broad_phase.interpolate_poses(a_pos, a_quat, b_pos, b_quat, float(f1), vol.pos1, vol.rot1)
+        broad_phase.substep_motion(vol.pos0, vol.rot0, vol.pos1, vol.rot1, vol.displacement, vol.chord)
 
     # ------------------------------------------------------------------ handling
-    def resolve_substep(self, x_start, x, v, inv_mass, h: float, edges, edge_rest, triangles) -> None:
+    # Each public call checks its arguments, then runs its kernel (``_points``, ``_contacts``, ``_edges``,
+    # ``_axes``); ``resolve_substep`` checks once for its up to nine kernel calls.
+    def resolve_substep(self, x_start, x, v, inv_mass, h: float, contacts, edges, edge_rest, triangles) -> None:
         """Full collision handling of a substep's end (memo §3 step 5, and beyond it edges and bones),
         with its retry policy: every point against every volume; then triangles a limb bone passes
         through go back to their side of it and edges a limb cuts into go back out; if either moved
         anything, the points that put into a volume are handled again -- the cached contacts, then,
         as an edge moved off one volume can meet its neighbour, the edges and every point against
         every volume once more, and the bones last, so that a pinch ends with the cloth on its side
-        of the bone (``collision.crossing``). Points (N, 3) m, velocities m/s, ``h`` s; ``edges``
-        (E, 2) with ``edge_rest`` (E,) m; ``triangles`` (T, 3)."""
-        self.handle_all(x_start, x, v, inv_mass, h)
-        crossed = self.handle_axes(x_start, x, v, inv_mass, triangles, h)
-        if self.handle_edges(x_start, x, inv_mass, edges, edge_rest) or crossed:
-            self.handle_contacts(x_start, x, v, inv_mass, h)
-            self.handle_edges(x_start, x, inv_mass, edges, edge_rest)
-            self.handle_all(x_start, x, v, inv_mass, h)
-            self.handle_axes(x_start, x, v, inv_mass, triangles, h)
+        of the bone (``collision.crossing``). Points (N, 3) m, velocities m/s, ``h`` s; ``contacts``
+        as ``new_contacts`` makes it; ``edges`` (E, 2) with ``edge_rest`` (E,) m; ``triangles`` (T, 3)."""
+        self._check_points(x_start, x, v, inv_mass, h, contacts)
+        edges, edge_rest = self._check_edges(edges, edge_rest)
+        self._check_triangles(triangles)
+        h = float(h)
+        self._points(x_start, x, v, inv_mass, h, contacts)
+        crossed = self._axes(x_start, x, v, inv_mass, h, triangles)
+        if self._edges(x_start, x, inv_mass, edges, edge_rest) or crossed:
+            self._contacts(x_start, x, v, inv_mass, h, contacts, self._mode)
+            self._edges(x_start, x, inv_mass, edges, edge_rest)
+            self._points(x_start, x, v, inv_mass, h, contacts)
+            self._axes(x_start, x, v, inv_mass, h, triangles)
 
-    def handle_contacts(self, x_start, x, v, inv_mass, h: float | None = None) -> None:
-        """Handling of the cached (in-contact) pairs at the substep-end poses (memo §3 step 4).
+    def handle_contacts(self, x_start, x, v, inv_mass, h: float, contacts) -> None:
+        """Handling of the cached (in-contact) pairs, ``contacts``, at the substep-end poses (memo §3 step 4).
 
         Static (``x_start`` None), or -- given the points' substep-start positions ``x_start`` -- the same adaptive
         static/dynamic handling as ``handle_all`` (without the slide), so that a point the length
-        correction pulled deep into a thin limb goes back out on the side it came from.
-        The surface velocity needs the substep length: ``h`` if given, else the one of the last
-        ``handle_all`` (substeps of a frame are equal); before any, the surface counts as at rest.
+        correction pulled deep into a thin limb goes back out on the side it came from. ``h`` (s), the
+        substep's length, gives the surface's velocity.
         """
-        self._check_points(x, v, inv_mass)
-        if x_start is None:
-            x_start, mode = x, kernels.MODE_STATIC
-        elif not isinstance(x_start, np.ndarray) or x_start.shape != x.shape or x_start.dtype != np.float64:
-            raise ValueError(f"Collider.handle_contacts: x_start must be a float64 array of shape {x.shape}")
-        else:
-            mode = self._mode
-        step = self._last_h if h is None else float(h)
-        kernel = kernels.handle_contacts_parallel if self.parallel else kernels.handle_contacts
-        self.static_hits += int(kernel(
-            self._kinds, self._radii, self._cuts, self._bounding_radii, self._switch_radii,
-            self.substep_start_positions, self.substep_start_rotations,
-            self.substep_end_positions, self.substep_end_rotations,
-            x_start, x, v, inv_mass, step, self._eps, self._friction, self._switch_ratio, mode, self.cache))
+        static = x_start is None
+        self._check_points(x if static else x_start, x, v, inv_mass, h, contacts)
+        self._contacts(x if static else x_start, x, v, inv_mass, float(h), contacts,
+                       MODE_STATIC if static else self._mode)
 
-    def handle_all(self, x_start, x, v, inv_mass, h: float) -> None:
-        """Every point against every volume, adaptive static/dynamic (memo §3 step 5, §6.2)."""
-        self._check_points(x, v, inv_mass)
-        if not isinstance(x_start, np.ndarray) or x_start.shape != x.shape or x_start.dtype != np.float64:
-            raise ValueError(f"Collider.handle_all: x_start must be a float64 array of shape {x.shape}")
-        if not h > 0.0:
-            raise ValueError(f"Collider.handle_all: the substep length h must be > 0 s, got {h!r}")
-        self._last_h = float(h)
-        bounding_radii, boxes = self._bounding_radii, self._boxes
-        if self.use_broad_phase:
-            broad_phase.reach_radii(bounding_radii, self._displacement, self._chord, x_start, x, inv_mass, self._reach)
-        else:  # infinite bounds: every test of the broad phase passes
-            bounding_radii, boxes = self._unbounded_radii, self._unbounded_boxes
-            self._reach.fill(np.inf)
-        kernel = kernels.handle_all_parallel if self.parallel else kernels.handle_all
-        n_static, n_dynamic = kernel(
-            self._kinds, self._radii, self._cuts, bounding_radii, self._switch_radii,
-            self.substep_start_positions, self.substep_start_rotations,
-            self.substep_end_positions, self.substep_end_rotations,
-            self._displacement, self._chord, self._reach, boxes, x_start, x, v, inv_mass, float(h),
-            self._eps, self._friction, self._c_time, self._switch_ratio, self._mode, self.cache, self._scratch)
-        self.static_hits += int(n_static)
-        self.dynamic_hits += int(n_dynamic)
+    def handle_all(self, x_start, x, v, inv_mass, h: float, contacts) -> None:
+        """Every point against every volume, adaptive static/dynamic (memo §3 step 5, §6.2); ``contacts``
+        (``new_contacts``) is read first and rewritten with what the points now touch."""
+        self._check_points(x_start, x, v, inv_mass, h, contacts)
+        self._points(x_start, x, v, inv_mass, float(h), contacts)
 
     def handle_edges(self, x_start, x, inv_mass, edges, rest_lengths) -> int:
         """Move cloth edges (E, 2) that cut into a volume deeper than their rest length allows back out,
@@ -195,41 +165,36 @@ class Collider:
         for name, array in (("x_start", x_start), ("x", x)):
             if not isinstance(array, np.ndarray) or array.shape != (self.n_points, 3) or array.dtype != np.float64:
                 raise ValueError(f"Collider.handle_edges: {name} must be a float64 array of shape ({self.n_points}, 3)")
-        edges = np.asarray(edges)
-        rest_lengths = np.asarray(rest_lengths, dtype=np.float64)
-        if edges is not self._checked_edges:  # the solver passes the same array every substep: check it once
-            if (edges.ndim != 2 or edges.shape[1] != 2 or rest_lengths.shape != (len(edges),)
-                    or (edges.size and not 0 <= edges.min() <= edges.max() < self.n_points)):
-                raise ValueError(f"Collider.handle_edges: edges must be (E, 2) point indices below {self.n_points} "
-                                 "with E rest lengths")
-            self._checked_edges = edges
-        elif rest_lengths.shape != (len(edges),):
-            raise ValueError(f"Collider.handle_edges: need {len(edges)} rest lengths, got shape {rest_lengths.shape}")
-        return int(kernels.handle_edges(self._kinds, self._radii, self._cuts, self._bounding_radii, self._boxes,
-                                        self.substep_start_positions, self.substep_start_rotations,
-                                        self.substep_end_positions, self.substep_end_rotations,
-                                        edges, rest_lengths, x_start, x, np.asarray(inv_mass, dtype=np.float64)))
+        edges, rest_lengths = self._check_edges(edges, rest_lengths)
+        return self._edges(x_start, x, np.asarray(inv_mass, dtype=np.float64), edges, rest_lengths)
 
-    def handle_axes(self, x_start, x, v, inv_mass, triangles, h: float) -> int:
+    def handle_axes(self, x_start, x, v, inv_mass, h: float, triangles) -> int:
         """Move cloth triangles (T, 3) that a volume's axis (its bone) passes through off it, to the
         volume's surface on the side they came from (``x_start``: substep start; see
         ``crossing.handle_axes``); x and v in place. Returns the number of triangles moved."""
-        self._check_points(x, v, inv_mass)
-        if not isinstance(x_start, np.ndarray) or x_start.shape != x.shape or x_start.dtype != np.float64:
-            raise ValueError(f"Collider.handle_axes: x_start must be a float64 array of shape {x.shape}")
-        if triangles is not self._checked_triangles:  # the solver passes the same array every substep
-            if (not isinstance(triangles, np.ndarray) or triangles.ndim != 2 or triangles.shape[1] != 3
-                    or triangles.dtype != np.int64
-                    or (triangles.size and not 0 <= triangles.min() <= triangles.max() < self.n_points)):
-                raise ValueError(f"Collider.handle_axes: triangles must be an int64 (T, 3) array of point indices "
-                                 f"below {self.n_points}")
-            self._checked_triangles = triangles
-        return int(crossing.handle_axes(self._kinds, self._radii, self._cuts, self._bounding_radii, self._bones,
-                                        self.substep_start_positions, self.substep_start_rotations,
-                                        self.substep_end_positions, self.substep_end_rotations,
-                                        triangles, x_start, x, v, inv_mass, float(h), self._eps, self._pinch_depth,
-                                        AXIS_PASSES,
-                                        self._corners))
+        self._check_points(x_start, x, v, inv_mass, h)
+        self._check_triangles(triangles)
+        return self._axes(x_start, x, v, inv_mass, float(h), triangles)
+
+    def _points(self, x_start, x, v, inv_mass, h: float, contacts) -> None:
+        kernel = kernels.handle_all_parallel if self.parallel else kernels.handle_all
+        arrays = self._packed if self.use_broad_phase else self._packed_unbounded
+        n_static, n_dynamic = kernel(arrays, x_start, x, v, inv_mass, h, self._eps, self._friction, self._c_time,
+                                     self._switch_ratio, self._mode, contacts, self._scratch)
+        self.static_hits += int(n_static)
+        self.dynamic_hits += int(n_dynamic)
+
+    def _contacts(self, x_start, x, v, inv_mass, h: float, contacts, mode: int) -> None:
+        kernel = kernels.handle_contacts_parallel if self.parallel else kernels.handle_contacts
+        self.static_hits += int(kernel(self._packed, x_start, x, v, inv_mass, h, self._eps, self._friction,
+                                       self._switch_ratio, mode, contacts))
+
+    def _edges(self, x_start, x, inv_mass, edges, rest_lengths) -> int:
+        return int(kernels.handle_edges(self._packed, x_start, x, inv_mass, edges, rest_lengths))
+
+    def _axes(self, x_start, x, v, inv_mass, h: float, triangles) -> int:
+        return int(crossing.handle_axes(self._packed, x_start, x, v, inv_mass, h, triangles, self._eps,
+                                        self._pinch_depth, AXIS_PASSES, self._corners))
 
     def penetration_depths(self, x) -> np.ndarray:
         """(N,) metres inside the deepest volume at the substep-end poses, 0 outside.
@@ -241,11 +206,11 @@ class Collider:
         if x.ndim != 2 or x.shape[1] != 3:
             raise ValueError(f"Collider.penetration_depths: x must have shape (N, 3), got {x.shape}")
         out = self._depths if x.shape[0] == self.n_points else np.zeros(x.shape[0])
-        kernels.penetration_depths(self._kinds, self._radii, self._cuts,
-                                   self.substep_end_positions, self.substep_end_rotations, x, out)
+        kernels.penetration_depths(self._packed, x, out)
         return out.copy()
 
-    def _check_points(self, x, v, inv_mass) -> None:
+    def _check_points(self, x_start, x, v, inv_mass, h, contacts=None) -> None:
+        """Refuse what the kernels would misread: they index the arrays unchecked and write x, v, contacts."""
         n = self.n_points
         for name, array, shape in (("x", x, (n, 3)), ("v", v, (n, 3)), ("inv_mass", inv_mass, (n,))):
             if not isinstance(array, np.ndarray) or array.shape != shape or array.dtype != np.float64:
@@ -254,3 +219,36 @@ class Collider:
                                  f"(modified in place), got {got}")
             if name != "inv_mass" and not array.flags.c_contiguous:
                 raise ValueError(f"Collider: {name} must be C-contiguous (it is modified in place)")
+        if not isinstance(x_start, np.ndarray) or x_start.shape != x.shape or x_start.dtype != np.float64:
+            raise ValueError(f"Collider: x_start must be a float64 array of shape {x.shape}")
+        if not h > 0.0:
+            raise ValueError(f"Collider: the substep length h must be > 0 s, got {h!r}")
+        if contacts is not None and contacts is not self._checked_contacts:  # the same array every substep
+            if (not isinstance(contacts, np.ndarray) or contacts.dtype != np.int64
+                    or contacts.shape != (n, self.cache_size) or not contacts.flags.c_contiguous):
+                raise ValueError(f"Collider: contacts must be a C-contiguous int64 array of shape "
+                                 f"{(n, self.cache_size)} (Collider.new_contacts; modified in place)")
+            self._checked_contacts = contacts
+
+    def _check_edges(self, edges, rest_lengths):
+        """``edges`` (E, 2) point indices and their ``rest_lengths`` (E,) m as arrays, or a clear error."""
+        edges = np.asarray(edges)
+        rest_lengths = np.asarray(rest_lengths, dtype=np.float64)
+        if edges is not self._checked_edges:  # the solver passes the same array every substep: check it once
+            if (edges.ndim != 2 or edges.shape[1] != 2 or rest_lengths.shape != (len(edges),)
+                    or (edges.size and not 0 <= edges.min() <= edges.max() < self.n_points)):
+                raise ValueError(f"Collider.handle_edges: edges must be (E, 2) point indices below {self.n_points} "
+                                 "with E rest lengths")
+            self._checked_edges = edges
+        elif rest_lengths.shape != (len(edges),):
+            raise ValueError(f"Collider.handle_edges: need {len(edges)} rest lengths, got shape {rest_lengths.shape}")
+        return edges, rest_lengths
+
+    def _check_triangles(self, triangles) -> None:
+        if triangles is not self._checked_triangles:  # the solver passes the same array every substep
+            if (not isinstance(triangles, np.ndarray) or triangles.ndim != 2 or triangles.shape[1] != 3
+                    or triangles.dtype != np.int64
+                    or (triangles.size and not 0 <= triangles.min() <= triangles.max() < self.n_points)):
+                raise ValueError(f"Collider.handle_axes: triangles must be an int64 (T, 3) array of point indices "
+                                 f"below {self.n_points}")
+            self._checked_triangles = triangles

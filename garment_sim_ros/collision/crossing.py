@@ -36,7 +36,8 @@ from .geometry import (
     to_local,
     to_world,
 )
-from .kernels import surface_velocity
+from .response import surface_velocity
+from .volume_arrays import VolumeArrays
 from .volumes import CAPSULE
 
 # Barycentric and segment-parameter slack of the crossing test: a bone through a shared edge or
@@ -99,8 +100,9 @@ def _normal(x, a, b, c):
 
 
 @kernel
-def _crossed_at_start(bones, pos0, rot0, v, xs, a, b, c):
-    z0, z1 = bones[v, 0], bones[v, 1]
+def _crossed_at_start(vol, v, xs, a, b, c):
+    pos0, rot0 = vol.pos0, vol.rot0
+    z0, z1 = vol.bones[v, 0], vol.bones[v, 1]
     px, py, pz = to_world(pos0, rot0, v, 0.0, 0.0, z0)
     qx, qy, qz = to_world(pos0, rot0, v, 0.0, 0.0, z1)
     return segment_crosses_triangle(px, py, pz, qx - px, qy - py, qz - pz, xs, a, b, c)[0]
@@ -116,7 +118,7 @@ def _clearing(corners, ux, uy, clearance):
 
 
 @kernel
-def _side_direction(bones, pos0, rot0, pos1, rot1, v, z, triangles, t, u, w, xs, x, corners, clearance):
+def _side_direction(vol, v, z, triangles, t, u, w, xs, x, corners, clearance):
     """Unit local direction (ux, uy), across volume v's axis at height z, towards the side of the bone
     triangle t was on at the substep's start. ``corners`` (3, 3): its corners, local, at the end pose.
 
@@ -127,7 +129,7 @@ def _side_direction(bones, pos0, rot0, pos1, rot1, v, z, triangles, t, u, w, xs,
     out of the fold. A triangle nearly square to the bone (speared by it) cannot leave along its normal:
     it goes towards where its crossed point was at the start, seen from the axis."""
     a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-    if _crossed_at_start(bones, pos0, rot0, v, xs, a, b, c):
+    if _crossed_at_start(vol, v, xs, a, b, c):
         best, ux, uy = math.inf, 1.0, 0.0
         for k in range(3):
             ex, ey = corners[(k + 1) % 3, 0] - corners[k, 0], corners[(k + 1) % 3, 1] - corners[k, 1]
@@ -141,6 +143,7 @@ def _side_direction(bones, pos0, rot0, pos1, rot1, v, z, triangles, t, u, w, xs,
             if cost < best:
                 best, ux, uy = cost, nx, ny
         return ux, uy
+    pos0, rot0, pos1, rot1 = vol.pos0, vol.rot0, vol.pos1, vol.rot1
     wa = 1.0 - u - w
     sx, sy, sz = (wa * xs[a, 0] + u * xs[b, 0] + w * xs[c, 0], wa * xs[a, 1] + u * xs[b, 1] + w * xs[c, 1],
                   wa * xs[a, 2] + u * xs[b, 2] + w * xs[c, 2])
@@ -164,10 +167,12 @@ def _side_direction(bones, pos0, rot0, pos1, rot1, v, z, triangles, t, u, w, xs,
 
 
 @kernel
-def _room(kinds, radii, cuts, bounding_radii, pos, rot, v, lx, ly, lz, ux, uy, length):
+def _room(vol, v, lx, ly, lz, ux, uy, length):
     """How far from volume v's local point l the cloth can go along the local (ux, uy, 0), up to
     ``length``, before it enters another volume; a volume l is inside already (the neighbour at a joint)
     does not stop it. In a pinch (a forearm on the hip) the cloth between the two stays between them."""
+    kinds, radii, cuts, bounding_radii = vol.kinds, vol.radii, vol.cuts, vol.bounding_radii
+    pos, rot = vol.pos1, vol.rot1
     ax, ay, az = to_world(pos, rot, v, lx, ly, lz)
     bx, by, bz = to_world(pos, rot, v, lx + length * ux, ly + length * uy, lz)
     room = length
@@ -187,8 +192,10 @@ def _room(kinds, radii, cuts, bounding_radii, pos, rot, v, lx, ly, lz, ux, uy, l
 
 
 @kernel
-def _depth_elsewhere(kinds, radii, cuts, bounding_radii, pos, rot, v, px, py, pz):
-    """Depth (m) of the simulation-frame point p in the deepest volume other than v."""
+def _depth_elsewhere(vol, v, px, py, pz):
+    """Depth (m) of the simulation-frame point p in the deepest volume other than v (end poses)."""
+    kinds, radii, cuts, bounding_radii = vol.kinds, vol.radii, vol.cuts, vol.bounding_radii
+    pos, rot = vol.pos1, vol.rot1
     deepest = 0.0
     for o in range(kinds.shape[0]):
         if o == v or (px - pos[o, 0]) ** 2 + (py - pos[o, 1]) ** 2 + (pz - pos[o, 2]) ** 2 > bounding_radii[o] ** 2:
@@ -199,8 +206,7 @@ def _depth_elsewhere(kinds, radii, cuts, bounding_radii, pos, rot, v, px, py, pz
 
 
 @kernel
-def _push_off_axis(kinds, radii, cuts, bounding_radii, bones, pos0, rot0, pos1, rot1, v, z, triangles, t, u, w,
-                   xs, x, vel, inv_mass, h, eps, pinch_depth, corners):
+def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, pinch_depth, corners):
     """Move triangle t, crossed by volume v's axis at local height z (barycentric u, w), off the bone to
     its side (unit local direction (ux, uy), ``_side_direction``): each corner short of ``eps`` along it
     goes there -- the least move that takes the bone out of the triangle, seen along the bone; a corner
@@ -212,25 +218,25 @@ def _push_off_axis(kinds, radii, cuts, bounding_radii, bones, pos0, rot0, pos1, 
     Returns whether it moved."""
     if inv_mass[triangles[t, 0]] == 0.0 or inv_mass[triangles[t, 1]] == 0.0 or inv_mass[triangles[t, 2]] == 0.0:
         return False  # it rides on the body with its attached corner: moving the others would only tear it
+    pos1, rot1 = vol.pos1, vol.rot1
     for k in range(3):
         i = triangles[t, k]
         corners[k, 0], corners[k, 1], corners[k, 2] = to_local(pos1, rot1, v, x[i, 0], x[i, 1], x[i, 2])
-    ux, uy = _side_direction(bones, pos0, rot0, pos1, rot1, v, z, triangles, t, u, w, xs, x, corners, eps)
+    ux, uy = _side_direction(vol, v, z, triangles, t, u, w, xs, x, corners, eps)
     for k in range(3):  # where each corner goes, in the simulation frame (corners[k] is then world)
         lx, ly, lz = corners[k, 0], corners[k, 1], corners[k, 2]
         short = eps - (lx * ux + ly * uy)
         if short > 0.0:
             lx, ly = lx + short * ux, ly + short * uy
-            inside, sx, sy, sz, nx, ny, nz = static_projection(kinds[v], radii, cuts, v, lx, ly, lz)
+            inside, sx, sy, sz, nx, ny, nz = static_projection(vol.kinds[v], vol.radii, vol.cuts, v, lx, ly, lz)
             if inside:
                 out = math.sqrt((sx - lx) ** 2 + (sy - ly) ** 2) + eps
                 radial = math.sqrt(lx * lx + ly * ly)  # >= eps: it is on the side now
                 rx, ry = lx / radial, ly / radial
-                out = _room(kinds, radii, cuts, bounding_radii, pos1, rot1, v, lx, ly, lz, rx, ry, out)
+                out = _room(vol, v, lx, ly, lz, rx, ry, out)
                 lx, ly = lx + out * rx, ly + out * ry
         corners[k, 0], corners[k, 1], corners[k, 2] = to_world(pos1, rot1, v, lx, ly, lz)
-        if _depth_elsewhere(kinds, radii, cuts, bounding_radii, pos1, rot1, v, corners[k, 0], corners[k, 1],
-                            corners[k, 2]) > pinch_depth:
+        if _depth_elsewhere(vol, v, corners[k, 0], corners[k, 1], corners[k, 2]) > pinch_depth:
             return False  # no room for the cloth between this bone and another volume: contact wins
     wnx, wny, wnz = rotate(rot1, v, ux, uy, 0.0)
     for k in range(3):
@@ -239,7 +245,7 @@ def _push_off_axis(kinds, radii, cuts, bounding_radii, bones, pos0, rot0, pos1, 
             continue
         x[i, 0], x[i, 1], x[i, 2] = corners[k, 0], corners[k, 1], corners[k, 2]
         lx, ly, lz = to_local(pos1, rot1, v, x[i, 0], x[i, 1], x[i, 2])
-        svx, svy, svz = surface_velocity(pos0, rot0, pos1, rot1, v, lx, ly, lz, h)
+        svx, svy, svz = surface_velocity(vol, v, lx, ly, lz, h)
         approach = (vel[i, 0] - svx) * wnx + (vel[i, 1] - svy) * wny + (vel[i, 2] - svz) * wnz
         if approach < 0.0:  # physics: inelastic, as the point handling (memo Eq. 6-2), no friction
             vel[i, 0] -= approach * wnx
@@ -249,15 +255,16 @@ def _push_off_axis(kinds, radii, cuts, bounding_radii, bones, pos0, rot0, pos1, 
 
 
 @kernel
-def handle_axes(kinds, radii, cuts, bounding_radii, bones, pos0, rot0, pos1, rot1, triangles, xs, x, vel, inv_mass,
-                h, eps, pinch_depth, passes, corners):
+def handle_axes(arrays, xs, x, vel, inv_mass, h, triangles, eps, pinch_depth, passes, corners):
     """Every volume axis (the bones; not spheres) against every triangle (T, 3) of ``x`` at the end poses;
     a crossed triangle goes off the axis (``_push_off_axis``). Moving one can cross a neighbour, so up to
     ``passes`` passes, until one moves nothing. ``corners`` (3, 3): scratch. Returns the number of triangles moved."""
+    vol = VolumeArrays(*arrays)  # a plain tuple from Python (see ``collision.kernels``)
+    bones, pos1, rot1 = vol.bones, vol.pos1, vol.rot1
     n_moved = 0
     for _ in range(passes):
         moved = 0
-        for v in range(kinds.shape[0]):
+        for v in range(bones.shape[0]):
             z0, z1 = bones[v, 0], bones[v, 1]
             if math.isnan(z0):
                 continue
@@ -269,9 +276,8 @@ def handle_axes(kinds, radii, cuts, bounding_radii, bones, pos0, rot0, pos1, rot
                 if segment_misses_triangle_box(x, a, b, c, px, py, pz, qx, qy, qz):
                     continue
                 crosses, s, u, w = segment_crosses_triangle(px, py, pz, dx, dy, dz, x, a, b, c)
-                if crosses and _push_off_axis(kinds, radii, cuts, bounding_radii, bones, pos0, rot0, pos1, rot1, v,
-                                              z0 + s * (z1 - z0), triangles, t, u, w, xs, x, vel, inv_mass, h, eps,
-                                              pinch_depth, corners):
+                if crosses and _push_off_axis(vol, v, z0 + s * (z1 - z0), triangles, t, u, w, xs, x, vel, inv_mass,
+                                              h, eps, pinch_depth, corners):
                     moved += 1
         n_moved += moved
         if moved == 0:

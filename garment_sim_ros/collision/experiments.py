@@ -7,7 +7,7 @@ goes up). A mass point moves at a constant 0.5 m/s, downwards and 45 deg to the 
 It starts ``distance_m`` before the ellipsoid's top point (0, 0, a_x) along its path, at t = 0.
 
 A run steps the point and the ellipsoid with a time step h and handles the pair with the same
-kernel as the cloth solver (``kernels.handle_pair``), forced static or dynamic, eps = 0. The
+kernel as the cloth solver (``response.handle_pair``), forced static or dynamic, eps = 0. The
 collision point is taken in the ellipsoid's local frame (where on the body the point hits):
 for the dynamic method the memo's ``l(alpha_c)``, for the static method the surface point the
 first penetrating position is projected to. The reference is the static method at a 0.00001 s
@@ -29,7 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from . import kernels
+from . import response
+from .volume_arrays import VolumeArrays
 from .volumes import ELLIPSOID
 
 RADII = (0.08, 0.08, 0.2)  # m: a thigh
@@ -69,14 +70,11 @@ def _ellipsoid_pose(t, pos, rot):
 
 @njit(cache=True)
 def _fall(start, velocity, h, first_step, duration, mode, stop_at_first_hit, friction, c_time):
-    kinds = np.array([ELLIPSOID])
-    radii = np.array([[RADII[0], RADII[1], RADII[2]]])
-    cuts = np.array([[-np.inf, np.inf]])
-    switch_radii = np.array([min(RADII[0], RADII[1])])
-    pos0 = np.zeros((1, 3))
-    rot0 = np.zeros((1, 3, 3))
-    pos1 = np.zeros((1, 3))
-    rot1 = np.zeros((1, 3, 3))
+    nowhere = np.zeros(1)  # the broad phase's fields: handle_pair reads none of them
+    vol = VolumeArrays(np.array([ELLIPSOID]), np.array([[RADII[0], RADII[1], RADII[2]]]), np.array([[-np.inf, np.inf]]),
+                       nowhere, np.array([min(RADII[0], RADII[1])]), np.full((1, 2), np.nan), np.zeros((1, 6)),
+                       np.zeros((1, 3)), np.zeros((1, 3, 3)), np.zeros((1, 3)), np.zeros((1, 3, 3)), nowhere, nowhere,
+                       nowhere)
     xs = np.zeros((1, 3))
     x = start.reshape(1, 3).copy()
     vel = velocity.reshape(1, 3).copy()
@@ -86,15 +84,13 @@ def _fall(start, velocity, h, first_step, duration, mode, stop_at_first_hit, fri
     t0 = 0.0
     step = first_step
     while t0 < duration - 1e-12:
-        _ellipsoid_pose(t0, pos0, rot0)
-        _ellipsoid_pose(t0 + step, pos1, rot1)
+        _ellipsoid_pose(t0, vol.pos0, vol.rot0)
+        _ellipsoid_pose(t0 + step, vol.pos1, vol.rot1)
         xs[0] = x[0]
         x[0] += step * vel[0]
-        code, alpha, lx, ly, lz = kernels.handle_pair(
-            kinds, radii, cuts, switch_radii, pos0, rot0, pos1, rot1, 0, xs, x, vel, 0,
-            step, 0.0, friction, c_time, 0.0, mode)
+        code, alpha, lx, ly, lz = response.handle_pair(vol, 0, xs, x, vel, 0, step, 0.0, friction, c_time, 0.0, mode)
         steps += 1
-        if code != kernels.NO_HIT and np.isnan(hit_time):
+        if code != response.NO_HIT and np.isnan(hit_time):
             hit_point[0], hit_point[1], hit_point[2] = lx, ly, lz
             hit_time = t0 + alpha * step
             if stop_at_first_hit:
@@ -123,7 +119,7 @@ def point_start(distance_m: float) -> tuple[np.ndarray, np.ndarray]:
 def _mode(method: str) -> int:
     if method not in ("static", "dynamic"):
         raise ValueError(f"method must be 'static' or 'dynamic', got {method!r}")
-    return kernels.MODE_STATIC if method == "static" else kernels.MODE_DYNAMIC
+    return response.MODE_STATIC if method == "static" else response.MODE_DYNAMIC
 
 
 def run(distance_m: float, step_s: float, method: str, phase: float = 0.0,

@@ -2,8 +2,9 @@
 projection out of a volume, penetration depth and where a straight path enters a volume.
 
 Volumes as in ``volumes.py`` (kinds, radii (V, 3) m, cuts (V, 2) m), posed by positions (V, 3) m and
-rotation matrices (V, 3, 3) (local -> simulation frame). The drivers over points, the response and
-the broad phase are in ``collision.kernels``; the bone crossing in ``collision.crossing``.
+rotation matrices (V, 3, 3) (local -> simulation frame). One point against one volume is
+``collision.response``; the drivers over points and edges ``collision.kernels``; the broad phase
+``collision.broad_phase``; the bone crossing ``collision.crossing``.
 """
 
 from __future__ import annotations

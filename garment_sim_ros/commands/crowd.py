@@ -34,11 +34,10 @@ import numpy as np
 
 from ..benchmarking import load_average, progress, set_threads
 from ..body.procedural import ProceduralCharacter, walk
-from ..params import SolverParams
 from ..runtime.character_loop import Status
 from ..runtime.crowd import Member, character_namespace, crowd_markers, make_members
 from ..runtime.marker_cdr import serialize_marker_array
-from ..runtime.settings import SOLVER_PARAMETER_NAMES, default_values
+from ..runtime.settings import default_values, solver_params
 from .simulate import parse_garments
 
 HELP = ("How many characters one process dresses at 60 fps: N walkers through the node's per-character "
@@ -57,9 +56,8 @@ class Crowd:
     def __init__(self, count: int, garments: list[str], resolution: float = 1.0):
         self.walker = ProceduralCharacter(walk())
         self.values = {**default_values(), "garments": garments, "resolution": resolution}
-        params = SolverParams(**{name: self.values[name] for name in SOLVER_PARAMETER_NAMES})
         prefixes = [f"c{k}/" for k in range(count)]
-        self.members = make_members(prefixes, self.values, params)
+        self.members = make_members(prefixes, self.values, solver_params(self.values))
         skeleton = self.walker.skeleton
         self._children = [[prefix + name for name in skeleton.names] for prefix in prefixes]
         self._parents = [[self.values["fixed_frame"] if p < 0 else prefix + skeleton.names[p] for p in skeleton.parents]

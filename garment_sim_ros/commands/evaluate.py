@@ -118,7 +118,7 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
     tic = time.perf_counter()
     source = bvh_source(run.clip, loop=False, speed=run.speed)
     character = make_character(source.rest_pose, source.joint_map, run.garment.split("+"), preset(run.preset),
-                               run.resolution, decimate_to=run.decimate)
+                               run.resolution, decimate_to=run.decimate, motion=source.fit_poses())
     seconds = source.duration if run.duration is None else min(source.duration, run.duration)
     frames = int(math.floor(seconds * run.fps + 1e-9))
     if frames < 1:

@@ -75,11 +75,10 @@ class Replay:
 
     def __init__(self, bag: str | Path, values: dict, rrd: str | Path, markers_bag: str | Path | None = None):
         from ..body.pose_buffer import PoseBuffer
-        from ..params import SolverParams
         from ..rerun_log import RerunLogger
         from ..runtime.bag_io import MARKER_ARRAY_TYPE, BagWriter, storage_of
         from ..runtime.character_loop import CharacterLoop
-        from ..runtime.settings import SOLVER_PARAMETER_NAMES
+        from ..runtime.settings import solver_params
         from ..runtime.tf_input import TFDecoder
 
         self.bag = Path(bag)
@@ -88,7 +87,7 @@ class Replay:
         self.buffer = PoseBuffer(v["fixed_frame"], max_age_s=v["max_skeleton_age"],
                                  max_extrapolation_s=v["max_extrapolation"])
         # catch_up_wall_s: no wall-clock limit, the same bag must give the same garments
-        self.loop = CharacterLoop(self.buffer, SolverParams(**{n: v[n] for n in SOLVER_PARAMETER_NAMES}),
+        self.loop = CharacterLoop(self.buffer, solver_params(v),
                                   v["garments"], v["resolution"], frame_prefix=v["frame_prefix"],
                                   root_frame=v["root_frame"], joint_map_file=v["joint_map_file"],
                                   body_file=v["body_file"], logger=logging.getLogger("garment_sim.replay"),
@@ -129,10 +128,10 @@ class Replay:
 
     def run(self) -> dict:
         """Every frame from the bag's first message to its last; returns the summary."""
-        from ..markers import frame_markers
         from ..rerun_log import frame_payload
         from ..runtime.bag_io import BagError, read_transforms
         from ..runtime.marker_cdr import serialize_marker_array
+        from ..runtime.markers import frame_markers
         from ..runtime.tf_input import seconds_to_stamp
 
         v = self.values

@@ -100,7 +100,7 @@ def run(args) -> int:
     params = preset(args.preset)
     source = run_source(args)
     character = make_character(source.rest_pose, source.joint_map, garments, params, args.resolution,
-                               decimate_to=args.decimate)
+                               decimate_to=args.decimate, motion=source.fit_poses())
     frames = int(round(args.duration * args.fps))
     if source.duration is not None:  # a clip that does not loop: the run ends with it
         frames = min(frames, int(math.floor(source.duration * args.fps + 1e-9)))

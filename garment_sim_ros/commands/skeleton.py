@@ -15,7 +15,8 @@ from ..body.overrides import BodyConfigError, load_body_overrides
 from ..collision.volumes import KIND_NAMES
 
 HELP = ("Read a BVH clip (converted to REP-103 z-up metres) and print the detected joint map, the body "
-        "volumes fitted to its skeleton in the canonical standing pose, the measurements estimated and clip info "
+        "volumes fitted to its skeleton in the canonical standing pose and to its first pose (trunk volumes an arm "
+        "bone comes near are narrowed), the measurements estimated and clip info "
         "(frames, fps, duration, mean horizontal pelvis speed).")
 
 _KIND_LABELS = {code: label for label, code in KIND_NAMES.items()}
@@ -67,6 +68,7 @@ def summary(clip: Clip, body: Body) -> dict:
         "units_scale": clip.units_scale,
         "dropped_reference_frame": clip.dropped_reference_frame,
         "estimated": list(body.estimated),
+        "narrowed": {name: round(scale, 4) for name, scale in body.narrowed.items()},
         "measurements": {k: round(float(v), 4) for k, v in vars(body.measurements).items()},
     }
 
@@ -78,6 +80,8 @@ def _print_text(info: dict) -> None:
         print("frame 0 is a reference pose the motion jumps away from: not used (--keep-first-frame keeps it)")
     print("estimated (out of human range, replaced by an estimate from the height): "
           + (", ".join(info["estimated"]) or "nothing"))
+    print("narrowed (an arm bone is near or in it in the first pose; cross-section scaled): "
+          + (", ".join(f"{name} x{scale:.3f}" for name, scale in info["narrowed"].items()) or "nothing"))
     print("joint map:")
     for role, frame in info["joint_map"].items():
         print(f"  {role:<16} {frame}")
@@ -99,7 +103,8 @@ def run(args) -> int:
         else:
             joint_map = auto_joint_map(clip.skeleton, first.positions)
         body = fit_body(canonical_pose(first, joint_map), joint_map, detailed=args.detailed,
-                        overrides=load_body_overrides(args.body_config))
+                        overrides=load_body_overrides(args.body_config),
+                        motion=[first])
         info = summary(clip, body)
     except (BvhError, JointMapError, BodyConfigError, FileNotFoundError, ValueError) as err:
         print(f"garment-sim skeleton: {err}", file=sys.stderr)

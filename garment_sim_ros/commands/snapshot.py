@@ -60,7 +60,7 @@ def dressed_at(source, garments: list[str], time_s: float, fps: float, resolutio
     from .simulate import simulate_frames
 
     character = make_character(source.rest_pose, source.joint_map, garments, preset("si"), resolution,
-                               decimate_to=decimate_to)
+                               decimate_to=decimate_to, motion=source.fit_poses())
     frames = max(1, math.ceil(time_s * fps))
     for _, pose, _ in simulate_frames(source, character, np.linspace(0.0, time_s, frames + 1)):
         pass
@@ -87,7 +87,7 @@ def snapshot(out: Path, outfits: list[list[str]] | None, time_s: float, view: st
     panels, labels = [], []
     if canonical or outfits is None:
         pose = source.rest_pose if canonical else source.pose(time_s)
-        body = fit_body(source.rest_pose, source.joint_map, detailed=True)
+        body = fit_body(source.rest_pose, source.joint_map, detailed=True, motion=source.fit_poses())
         panels.append(render_character(pose, body.volumes, source.joint_map, view=view, width=width, height=height,
                                        volume_alpha=0.55, skeleton=True))
         labels.append(f"{clip}: {len(body.volumes)} body volumes, "

@@ -24,9 +24,11 @@ Wires topics, parameters and timers to the ROS-free modules:
   re-fitted (``solver_restored``, ``solver_refitted``); OK running, WARN waiting, holding or lagging,
   ERROR for a skeleton that cannot be mapped or a frame that failed since the last status.
 - parameters: every row of ``params.PARAMETERS`` and ``runtime.settings.NODE_PARAMETERS``, declared
-  with descriptors. A change (parameter services, ``set_parameters``, the watched params file) is
-  validated against the tables first: a bad value is refused with the table's reason and the old
-  value stays; a good one takes effect at the next frame.
+  with descriptors (``node_parameters``). A change (parameter services, ``set_parameters``, the
+  watched params file) is validated against the tables first: a bad value is refused with the
+  table's reason and the old value stays; a good one takes effect at the next frame.
+- a steady timer every ``watch_period``: the params file when watched (``params_watch``) and the worn
+  garments' spec and mesh files (a save re-dresses; the frame itself touches no file).
 """
 
 from __future__ import annotations
@@ -34,19 +36,12 @@ from __future__ import annotations
 import sys
 import time
 import traceback
-from typing import Any, Sequence
+from typing import Any
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
-from rclpy.exceptions import (
-    InvalidParameterTypeException,
-    InvalidParameterValueException,
-    ParameterNotDeclaredException,
-)
 from rclpy.node import Node
-from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 from std_msgs.msg import Header
@@ -55,21 +50,16 @@ from visualization_msgs.msg import MarkerArray
 
 from ..params import ParameterError, SolverParams
 from ..rerun_log import RerunLogger
-from ..runtime.character_loop import FrameResult, Throttle
+from ..runtime.character_loop import FrameResult
 from ..runtime.crowd import Member, character_namespace, character_prefixes, crowd_markers, make_members, route_tf
+from ..runtime.events import EventLog
 from ..runtime.marker_cdr import serialize_marker_array
-from ..runtime.settings import (
-    ALL_PARAMETERS,
-    PARAMETER_ROWS,
-    SOLVER_PARAMETER_NAMES,
-    check_garments,
-    garment_folders,
-    is_read_only,
-)
+from ..runtime.settings import SOLVER_PARAMETER_NAMES, garment_folders, solver_params
 from ..runtime.tf_input import TFDecoder, ingest
 from .diagnostics import crowd_statuses
+from .node_parameters import NodeParameters
 from .params_watch import ParamsFileWatch
-from .ros_parameters import descriptor, parameter_type, params_file_from_args, plain, ros_value
+from .ros_parameters import params_file_from_args, plain
 from .spinning import spin_until_shutdown
 
 NODE_NAME = "garment_sim_node"
@@ -87,22 +77,16 @@ _REDRESS_KEYS = ("garments", "resolution", "garment_path")
 _CLEAR_KEYS = ("garments", "resolution", "garment_path", "marker_namespace", "publish_volumes")
 
 
-class UndeclaredParameters(ParameterNotDeclaredException):
-    """rclpy's refusal of undeclared parameters (the parameter services answer with it), naming them."""
-
-    def __init__(self, message: str):
-        Exception.__init__(self, message)
-
-
 class GarmentSimNode(Node):
     """Dresses the character of ``frame_prefix`` (or those of ``frame_prefixes``) on /tf; see the module docstring."""
 
     def __init__(self, node_name: str = NODE_NAME, *, params_file_hint: str = "", **kwargs):
         super().__init__(node_name, **kwargs)
-        self._throttle = Throttle()
-        self._refusals: dict[str, str] = {}  # parameter -> the tables' reason, from _prepare for _check
-        self.values: dict[str, Any] = self._declare_parameters(kwargs.get("parameter_overrides") or ())
-        self.solver_params = SolverParams(**{name: self.values[name] for name in SOLVER_PARAMETER_NAMES})
+        self._events = EventLog(self.get_logger())
+        self.parameter_checks = NodeParameters(self, kwargs.get("parameter_overrides") or (),
+                                               self._on_parameters_accepted)
+        self.values: dict[str, Any] = self.parameter_checks.values
+        self.solver_params: SolverParams = solver_params(self.values)
         v = self.values
         try:
             prefixes = character_prefixes(v["frame_prefix"], v["frame_prefixes"])
@@ -136,7 +120,7 @@ class GarmentSimNode(Node):
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.diagnostics_timer = self.create_timer(v["diagnostics_period"], self.publish_diagnostics, clock=steady)
         self.params_watch = ParamsFileWatch(self, params_file_hint)
-        self.watch_timer = self.create_timer(v["watch_period"], self.params_watch.poll, clock=steady)
+        self.watch_timer = self.create_timer(v["watch_period"], self._on_watch_timer, clock=steady)
         self.rerun = self._create_rerun_logger()
 
     # the first (with frame_prefix alone, the only) character's
@@ -146,93 +130,8 @@ class GarmentSimNode(Node):
     input_counts = property(lambda self: self.members[0].input_counts)
 
     # ------------------------------------------------------------------------------ parameters
-    # rclpy's public callbacks: ``_prepare`` (pre-set, runtime sets only) checks against the tables and
-    # types the values as declared; rclpy then checks the descriptors (type, range, read-only), ``_check``
-    # (on-set, also at declaration) refuses with the table's reason, ``_accepted`` (post-set) applies.
-    # rclpy checks descriptors before on-set callbacks, and its messages lack the table's units and
-    # allowed values: a value ``_prepare`` refuses is passed on as the current one (rclpy finds nothing
-    # wrong) and ``_check`` refuses it with the table's reason.
-    def _declare_parameters(self, overrides: Sequence[Parameter]) -> dict[str, Any]:
-        """Declare every table row; start-up values (--params-file, -p) are checked by ``_check`` like
-        runtime ones: a refused one is logged and the default used."""
-        self.add_on_set_parameters_callback(self._check)
-        values = {}
-        for row in ALL_PARAMETERS:
-            try:
-                self.declare_parameter(row.name, ros_value(row.default), descriptor(row))
-            except (InvalidParameterTypeException, InvalidParameterValueException) as err:
-                self.get_logger().error(f"start-up parameter refused: {err}; using the default {row.default!r}")
-                self.declare_parameter(row.name, ros_value(row.default), descriptor(row), ignore_override=True)
-            values[row.name] = row.check(plain(self.get_parameter(row.name).value))
-        unknown = sorted({p.name for p in overrides} - set(PARAMETER_ROWS) - {"use_sim_time"})
-        if unknown:
-            self.get_logger().warning(f"unknown start-up parameter(s) {', '.join(unknown)} ignored; known: "
-                                      f"{', '.join(PARAMETER_ROWS)}")
-        self.add_pre_set_parameters_callback(self._prepare)
-        self.add_post_set_parameters_callback(self._accepted)
-        return values
-
-    def _prepare(self, parameters: list[Parameter]) -> list[Parameter]:
-        """Pre-set: each parameter typed as declared (an integer for a real number is that number), or,
-        refused by the tables, its current value with the reason kept for ``_check``."""
-        self._refusals = {}
-        undeclared = [p.name for p in parameters if not self.has_parameter(p.name)]
-        if undeclared:  # rclpy Jazzy's own refusal names none of them (it lists a consumed generator)
-            reason = f"undeclared parameter(s) {', '.join(undeclared)}; known: {', '.join(PARAMETER_ROWS)}"
-            self.get_logger().warning(f"parameter set refused: {reason}")
-            raise UndeclaredParameters(reason)
-        prepared, changes = [], {}
-        for parameter in parameters:
-            name = parameter.name
-            if name not in PARAMETER_ROWS:
-                prepared.append(parameter)  # use_sim_time: rclpy's own rules apply
-                continue
-            try:
-                if parameter.type_ == Parameter.Type.NOT_SET:
-                    raise ParameterError(f"{name}: cannot be unset; allowed: {PARAMETER_ROWS[name].allowed()}")
-                value = PARAMETER_ROWS[name].check(plain(parameter.value))
-                if is_read_only(name):
-                    raise ParameterError(f"{name}: read-only, set at start (--params-file or -p); running with "
-                                         f"{self.values[name]!r}, got {value!r}")
-            except ParameterError as err:
-                self._refusals[name] = str(err)
-                prepared.append(self.get_parameter(name))
-                continue
-            prepared.append(Parameter(name, parameter_type(PARAMETER_ROWS[name]), ros_value(value)))
-            changes[name] = value
-        garment_keys = {"garments", "garment_path"} & changes.keys()
-        if garment_keys:
-            try:  # every garment named must resolve to a built-in or a valid spec
-                check_garments(changes.get("garments", self.values["garments"]),
-                               changes.get("garment_path", self.values["garment_path"]))
-            except ParameterError as err:
-                self._refusals.update({name: str(err) for name in garment_keys})
-        solver_changes = {k: v for k, v in changes.items() if k in SOLVER_PARAMETER_NAMES}
-        try:
-            self.solver_params.replace(**solver_changes)  # the combination must be valid too
-        except ParameterError as err:
-            self._refusals.update({name: str(err) for name in solver_changes})
-        for reason in dict.fromkeys(self._refusals.values()):  # every refused set said once
-            self.get_logger().warning(f"parameter set refused: {reason}")
-        return prepared
-
-    def _check(self, parameters: list[Parameter]) -> SetParametersResult:
-        """On-set (runtime sets after ``_prepare``, and declarations): the table's refusal, if any."""
-        for parameter in parameters:
-            reason = self._refusals.get(parameter.name)
-            if reason is None and parameter.name in PARAMETER_ROWS:
-                try:
-                    PARAMETER_ROWS[parameter.name].check(plain(parameter.value))
-                except ParameterError as err:
-                    reason = str(err)
-            if reason is not None:
-                return SetParametersResult(successful=False, reason=reason)
-        return SetParametersResult(successful=True)
-
-    def _accepted(self, parameters: list[Parameter]) -> None:
-        """Post-set: the new values take effect at the next frame (timers at once)."""
-        changes = {p.name: PARAMETER_ROWS[p.name].check(plain(p.value)) for p in parameters if p.name in PARAMETER_ROWS}
-        self.values.update(changes)
+    def _on_parameters_accepted(self, changes: dict[str, Any]) -> None:
+        """The new values take effect at the next frame (timers at once)."""
         self._pending.update(changes)
         if "rate_hz" in changes:
             self.frame_timer.timer_period_ns = int(1e9 / changes["rate_hz"])
@@ -241,13 +140,19 @@ class GarmentSimNode(Node):
         if "watch_period" in changes:
             self.watch_timer.timer_period_ns = int(1e9 * changes["watch_period"])
 
+    def _on_watch_timer(self) -> None:
+        """The files: the params file (when watched) and the worn garments' specs (a save re-dresses)."""
+        self.params_watch.poll()
+        for member in self.members:
+            member.loop.check_specs()
+
     def _apply_pending(self) -> None:
         """Parameter changes take effect here, at the start of a frame."""
         changes, self._pending = self._pending, {}
         if not changes:
             return
         if SOLVER_PARAMETER_NAMES & changes.keys():
-            self.solver_params = SolverParams(**{name: self.values[name] for name in SOLVER_PARAMETER_NAMES})
+            self.solver_params = solver_params(self.values)
         for member in self.members:
             if SOLVER_PARAMETER_NAMES & changes.keys():
                 member.loop.set_params(self.solver_params)
@@ -436,13 +341,7 @@ class GarmentSimNode(Node):
         self.diagnostics_publisher.publish(DiagnosticArray(header=Header(stamp=now.to_msg()), status=statuses))
 
     def log_throttled(self, level: str, key: str, message: str) -> None:
-        if not self._throttle.ready(key):
-            return
-        # one call per severity: rclpy's logger refuses two severities from one line of code
-        if level == "error":
-            self.get_logger().error(message)
-        else:
-            self.get_logger().warning(message)
+        self._events.log(level, key, message)
 
     def destroy_node(self) -> None:
         if self.rerun is not None:

@@ -17,7 +17,8 @@ from typing import TYPE_CHECKING, Any
 from rclpy.parameter import Parameter
 
 from ..params import ParameterError
-from ..runtime.params_file import FileWatch, ParamsFileError, read_node_parameters
+from ..runtime.file_watch import FileWatch
+from ..runtime.params_file import ParamsFileError, read_node_parameters
 from ..runtime.settings import PARAMETER_ROWS, is_read_only
 from .ros_parameters import plain, ros_value
 

@@ -45,8 +45,10 @@ module decides what happens:
    ``clock_not_started``). Several skeletons under the fixed frame that ``frame_prefix`` does not
    tell apart: the largest is dressed, and a warning names them all and the one picked.
 
-Changing garments or resolution (``set_garments``) re-dresses at the next frame; solver
-parameters (``set_params``) apply from the next step on.
+Changing garments or resolution (``set_garments``) re-dresses at the next frame, and so does a
+saved spec or mesh file of a worn garment (``check_specs``, from the node's file-watch timer: the
+frame itself touches no file); solver parameters (``set_params``) apply from the next step on.
+Finding, checking and mapping the skeleton: ``skeleton_setup``; logging: ``events``.
 """
 
 from __future__ import annotations
@@ -61,27 +63,24 @@ from typing import Sequence
 
 import numpy as np
 
-from ..body.canonical import canonical_pose, local_transforms
-from ..body.joint_map import auto_joint_map, load_joint_map
+from ..body.canonical import canonical_pose
+from ..body.jumps import is_jump
 from ..body.overrides import load_body_overrides
-from ..body.pose_buffer import MAX_FRAME_SPEED, PoseBuffer, SampleStatus
+from ..body.pose_buffer import PoseBuffer, SampleStatus
 from ..body.skeleton import Skeleton, SkeletonPose
 from ..cloth.solver import FrameReport
 from ..cloth.spec import resolve_garment
 from ..dressing import DressedCharacter, make_character
 from ..params import SolverParams
+from .events import EventLog
+from .file_watch import FilesWatch
+from .skeleton_setup import bones_unsettled, map_joints, skeleton_roots
 
 RESUME_GAP_S = 1.0  # a hold longer than this re-dresses (the body moved arbitrarily meanwhile)
 MAX_CATCH_UP_FRAMES = 25  # a frame covers a gap in at most this many full frames (1 s by default)
 CATCH_UP_WALL_S = 0.1  # ...and spends at most about this long on them (a busy machine lags instead)
 CLOCK_JUMP_BACK_S = 1.0  # a clock this far behind the last frame restarts (sim time reset, looped bag)
-LOG_PERIOD_S = 5.0  # the same warning at most this often
 BEHIND_WARNING_S = 1.0  # running behind the clock this long is logged (the status says so at once)
-# Bones seen on /tf must match those BONE_CHECK_S earlier within this tolerance (m + fraction) before the
-# body is fitted: a rigid skeleton's bones do not change, a retargeting or scaling one does.
-BONE_CHECK_S = 0.1
-BONE_TOLERANCE_M = 0.005
-BONE_TOLERANCE = 0.02
 _USABLE = (SampleStatus.OK, SampleStatus.EXTRAPOLATED)
 
 
@@ -107,21 +106,6 @@ class FrameResult:
     dressed: bool  # this frame put the garments on (first skeleton, new garments, after a gap)
 
 
-class Throttle:
-    """Lets a message of a given kind (key) through at most once per ``period_s``."""
-
-    def __init__(self, period_s: float = LOG_PERIOD_S):
-        self.period_s = period_s
-        self._last: dict[str, float] = {}
-
-    def ready(self, key: str) -> bool:
-        now = time.monotonic()
-        if now - self._last.get(key, -float("inf")) < self.period_s:
-            return False
-        self._last[key] = now
-        return True
-
-
 class CharacterLoop:
     """The garments on the character whose frames start with ``frame_prefix`` in ``buffer``."""
 
@@ -130,24 +114,19 @@ class CharacterLoop:
                  catch_up_wall_s: float = CATCH_UP_WALL_S, body_file: str = "", garment_path: Sequence[str] = (),
                  on_event=None):
         self.buffer = buffer
-        # on_event(level, kind, message): every logged event, unthrottled, but a run of the same kind
-        # (a hold logs every frame) only once: the Rerun recording's text log
-        self.on_event = on_event
-        self._last_event = ""
+        self.events = EventLog(logger, on_event)  # on_event(level, kind, message): the Rerun recording's text log
         self.params = params
         # one rule for a jump: the buffer confirms it, the loop re-dresses
         buffer.jump_distance_m = params.teleport_distance
         self.garments = list(garments)
         self.resolution = float(resolution)
         self.garment_path = tuple(garment_path)
-        self._spec_stamps: dict[Path, float] = {}  # the dressed garments' spec and mesh files -> mtime
+        self._spec_files = FilesWatch()  # the dressed garments' spec and mesh files
         self.frame_prefix = frame_prefix
         self.root_frame = root_frame
         self.joint_map_file = joint_map_file
         self.body_file = body_file
-        self.logger = logger
         self.catch_up_wall_s = catch_up_wall_s
-        self.throttle = Throttle()
         self.character: DressedCharacter | None = None
         self.skeleton: Skeleton | None = None
         self.joint_map: dict[str, str] = {}
@@ -178,19 +157,19 @@ class CharacterLoop:
         self.resolution = float(resolution)
         if garment_path is not None:
             self.garment_path = tuple(garment_path)
-        self._spec_stamps = {}
+        self._spec_files = FilesWatch()
         self.character = None
         self._refused = None
 
-    def _specs_changed(self) -> bool:
-        """Whether a dressed garment's spec or mesh file was saved since it was read."""
-        for path, stamp in self._spec_stamps.items():
-            try:
-                if path.stat().st_mtime != stamp:
-                    return True
-            except OSError:
-                return True
-        return False
+    def check_specs(self) -> bool:
+        """Dress again (at the next frame) when a worn garment's spec or mesh file was saved since it was
+        read, also after a refused spec: its fix dresses again. For a low-rate timer, not the frame: it
+        looks at the files."""
+        if not self._spec_files.changed():
+            return False
+        self.events.log("info", "spec_changed", "a garment spec or mesh file changed: dressing again")
+        self.set_garments(self.garments, self.resolution)
+        return True
 
     @property
     def mass_points(self) -> int:
@@ -210,9 +189,6 @@ class CharacterLoop:
         ``time_s`` leads it by the last frame's compute): staleness is judged there."""
         now_s = time_s if now_s is None else now_s
         last_now_s, self._last_now_s = self._last_now_s, now_s
-        if self._specs_changed():  # also after a refused spec: its fix dresses again
-            self._log("info", "spec_changed", "a garment spec or mesh file changed: dressing again")
-            self.set_garments(self.garments, self.resolution)
         if self.character is None:
             return self._dress_when_ready(time_s)
         if time_s <= self.last_time:
@@ -271,8 +247,8 @@ class CharacterLoop:
                 return self._hold("root_motion_" + motion.status.value, f"skeleton at {t:.3f} s: {motion.detail}")
             jump = float(np.linalg.norm(motion.position - self.character.root.position))
             # The buffer confirmed the jump (the next sample stayed there) and dropped the motion before it. A
-            # body that walked on while the data or the loop stalled moves slower than MAX_FRAME_SPEED: lag.
-            if jump > self.params.teleport_distance and jump > MAX_FRAME_SPEED * (t - self.last_time):
+            # body that walked on while the data or the loop stalled moves slower than a jump: lag.
+            if is_jump(jump, t - self.last_time, self.params.teleport_distance):
                 return self._redress(time_s, "teleported", f"the root jumped {jump:.2f} m by {t:.3f} s (more than "
                                      f"teleport_distance {self.params.teleport_distance} m, confirmed by the next "
                                      "sample); dressing again at the new pose")
@@ -297,13 +273,13 @@ class CharacterLoop:
         message = (f"the skeleton's newest pose is {age_s:.3f} s old at the clock (more than max_extrapolation "
                    f"{self.buffer.max_extrapolation_s} s): the garments follow it, markers carry its time")
         if time.monotonic() - self._behind_since > BEHIND_WARNING_S:
-            self._log("warning", "behind", message)
+            self.events.log("warning", "behind", message)
         self._behind_detail = message
 
     def _running(self, time_s: float) -> None:
         if self.status not in (Status.RUNNING, Status.BEHIND):
-            self._log("info", "status", f"simulating {', '.join(self.garments)} on the skeleton under "
-                                        f"{self.skeleton.names[0]!r}")
+            self.events.log("info", "status", f"simulating {', '.join(self.garments)} on the skeleton under "
+                                              f"{self.skeleton.names[0]!r}")
         self.status, self.detail = Status.RUNNING, ""
         if self._behind_since is not None:
             self.status, self.detail = Status.BEHIND, self._behind_detail
@@ -315,12 +291,12 @@ class CharacterLoop:
         self.status, self.detail = Status.HOLDING, message
         self._catching_up = True  # when the skeleton is back, follow it across the gap in full frames
         if warn:
-            self._log("warning", reason, message)
+            self.events.log("warning", reason, message)
         return None
 
     def _redress(self, time_s: float, reason: str, message: str) -> FrameResult | None:
         self.counts[reason] += 1
-        self._log("warning", reason, message)
+        self.events.log("warning", reason, message)
         self.character = None
         return self._dress_when_ready(time_s)
 
@@ -355,28 +331,19 @@ class CharacterLoop:
     def _find_root(self) -> str | None:
         if self.root_frame:
             return self.root_frame if self.root_frame in self.buffer.frames else None
-        fixed = self.buffer.fixed_frame
-        roots = [f for f in self.buffer.frames
-                 if f.startswith(self.frame_prefix) and self.buffer.parent(f) == fixed]
-        if not roots:
-            return None
-        # Several children of the fixed frame: the one carrying the largest tree is the skeleton.
-        sizes = {f: len(self.buffer.skeleton_from_tree(f).names) for f in sorted(roots)}
-        picked = max(sizes, key=sizes.get)
-        # Another skeleton, not a stray frame (a camera): at least half as many frames as the largest.
-        skeletons = sorted(f for f, size in sizes.items() if size >= sizes[picked] / 2)
-        if len(skeletons) > 1 and skeletons != self._ambiguous:
-            self._ambiguous = skeletons  # said once per set
+        picked, skeletons = skeleton_roots(self.buffer, self.frame_prefix)
+        if len(skeletons) > 1 and sorted(skeletons) != self._ambiguous:
+            self._ambiguous = sorted(skeletons)  # said once per set
             self.counts["several_skeletons"] += 1
-            self._log("warning", "several_skeletons", f"{len(skeletons)} skeletons under {fixed!r} match "
-                      f"frame_prefix {self.frame_prefix!r}: "
-                      + ", ".join(f"{f!r} ({sizes[f]} frames)" for f in skeletons)
-                      + f"; dressing {picked!r}. Set frame_prefix (or root_frame) to choose")
+            self.events.log("warning", "several_skeletons", f"{len(skeletons)} skeletons under "
+                            f"{self.buffer.fixed_frame!r} match frame_prefix {self.frame_prefix!r}: "
+                            + ", ".join(f"{f!r} ({size} frames)" for f, size in skeletons.items())
+                            + f"; dressing {picked!r}. Set frame_prefix (or root_frame) to choose")
         return picked
 
     def _wait(self, status: str, detail: str, level: str = "info") -> None:
         self.status, self.detail = status, detail
-        self._log(level, status, detail)
+        self.events.log(level, status, detail)
         return None
 
     def _dress_when_ready(self, time_s: float) -> FrameResult | None:
@@ -397,7 +364,7 @@ class CharacterLoop:
             return self._wait(Status.WAITING, f"waiting for the skeleton under {root!r}: {sample.status.value}: "
                                               f"{sample.detail}")
         time_s = self._pose_time(time_s, sample.age_s)  # dressed on the newest pose the skeleton has
-        reason, unsettled = self._bones_settled(skeleton, time_s, sample.pose)
+        reason, unsettled = bones_unsettled(self.buffer, skeleton, time_s, sample.pose)
         if unsettled:
             if reason:
                 self.counts[reason] += 1
@@ -417,8 +384,8 @@ class CharacterLoop:
         character.dress(sample.pose, time_s, motion if motion.position is not None else None)
         self.character, self.skeleton, self.joint_map = character, skeleton, joint_map
         self._catching_up = self._just_dressed = True
-        self._log("info", "dressed", f"dressed {', '.join(self.garments)} ({self.mass_points} mass points) on "
-                                     f"{len(skeleton.names)} frames under {root!r}")
+        self.events.log("info", "dressed", f"dressed {', '.join(self.garments)} ({self.mass_points} mass points) "
+                                           f"on {len(skeleton.names)} frames under {root!r}")
         self._running(time_s)
         return FrameResult(time_s, sample.pose, [], 0.0, time.perf_counter() - tic, character.max_penetration(), True)
 
@@ -427,57 +394,19 @@ class CharacterLoop:
         return time_s - max(0.0, age_s - self.buffer.max_extrapolation_s)
 
     def _build(self, skeleton: Skeleton, pose: SkeletonPose) -> tuple[DressedCharacter, dict[str, str]]:
-        prefix = self.frame_prefix
-        bare = Skeleton(tuple(n[len(prefix):] if n.startswith(prefix) else n for n in skeleton.names),
-                        skeleton.parents)
-        if self.joint_map_file:
-            bare_map = load_joint_map(self.joint_map_file, bare)
-        else:
-            bare_map = auto_joint_map(bare, pose.positions)
-        joint_map = {role: skeleton.names[bare.index(name)] for role, name in bare_map.items()}
+        joint_map = map_joints(skeleton, pose, self.frame_prefix, self.joint_map_file)
         overrides = load_body_overrides(self.body_file) if self.body_file else None
-        self._spec_stamps = {Path(g): Path(g).stat().st_mtime for g in self.garments if Path(g).is_file()}
+        # watched before resolving: a refused spec dresses again once it is saved
+        self._spec_files = FilesWatch(Path(g) for g in self.garments if Path(g).is_file())
         specs = [resolve_garment(g, self.garment_path) for g in self.garments]
-        # stamped before dressing: a mesh refused while dressing is retried once its file is saved again
-        self._spec_stamps.update({f: f.stat().st_mtime for s in specs for f in (s.path, s.mesh) if f is not None})
+        # watched before dressing: a mesh refused while dressing is retried once its file is saved again
+        self._spec_files.add(f for s in specs for f in (s.path, s.mesh) if f is not None)
         character = make_character(canonical_pose(pose, joint_map), joint_map, specs, self.params, self.resolution,
-                                   overrides=overrides)
+                                   overrides=overrides, motion=[pose])
         if character.body.estimated:
-            self._log("warning", "estimated", f"body measurement(s) {', '.join(character.body.estimated)} were out "
-                      "of human range for this skeleton and were estimated from its height; override them with "
-                      "body_file")
+            self.events.log("warning", "estimated", f"body measurement(s) {', '.join(character.body.estimated)} were "
+                            "out of human range for this skeleton and were estimated from its height; override them "
+                            "with body_file")
         for note in character.notes:
-            self._log("warning", "moved_out", note)
+            self.events.log("warning", "moved_out", note)
         return character, joint_map
-
-    def _bones_settled(self, skeleton: Skeleton, time_s: float, pose: SkeletonPose) -> tuple[str, str]:
-        """``("", "")`` if the bones seen at ``time_s`` are those of ``BONE_CHECK_S`` earlier, else a reason
-        (a counts key, or "" for a plain wait) and what is wrong: the canonical pose is built from them, so
-        a skeleton that has not been seen for that long, or is still being scaled or re-rigged, is not
-        fitted yet."""
-        earlier = self.buffer.sample(time_s - BONE_CHECK_S, skeleton)
-        if earlier.status != SampleStatus.OK:  # not seen that long ago: wait for the history
-            return "", f"its bones are checked over {BONE_CHECK_S:g} s of data first"
-        now_t, before_t = local_transforms(pose)[0][1:], local_transforms(earlier.pose)[0][1:]
-        lengths, before = np.linalg.norm(now_t, axis=1), np.linalg.norm(before_t, axis=1)
-        change = np.abs(lengths - before)
-        worst = int(np.argmax(change)) if len(change) else 0
-        if len(change) and change[worst] > BONE_TOLERANCE_M + BONE_TOLERANCE * before[worst]:
-            return "bones_changing", (f"to hold still in shape: bone {skeleton.names[worst + 1]!r} is "
-                                      f"{lengths[worst]:.4f} m long now and {before[worst]:.4f} m "
-                                      f"{BONE_CHECK_S:g} s earlier")
-        return "", ""
-
-    def _log(self, level: str, key: str, message: str) -> None:
-        if self.on_event is not None and key != self._last_event:
-            self.on_event(level, key, message)
-        self._last_event = key
-        if self.logger is None or not self.throttle.ready(key):
-            return
-        # one call per severity: rclpy's logger refuses two severities from one line of code
-        if level == "error":
-            self.logger.error(message)
-        elif level == "warning":
-            self.logger.warning(message)
-        else:
-            self.logger.info(message)

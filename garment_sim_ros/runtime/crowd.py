@@ -22,12 +22,12 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
 from ..body.pose_buffer import PoseBuffer
-from ..markers import delete_all, frame_markers
 from ..params import ParameterError, SolverParams
 from ..rerun_log import frame_payload
 from .character_loop import CharacterLoop, FrameResult
 from .frame_stats import FrameStats
 from .marker_cdr import MarkerData
+from .markers import delete_all, frame_markers
 from .settings import garment_folders
 from .tf_input import IngestResult, TFDecoder, TransformBatch, ingest_batch, seconds_to_stamp
 

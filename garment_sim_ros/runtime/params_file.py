@@ -1,4 +1,4 @@
-"""A ROS 2 parameter YAML read the way ``--params-file`` reads it, and watched for changes (ROS-free).
+"""A ROS 2 parameter YAML read the way ``--params-file`` reads it (ROS-free; ``file_watch`` tells when it changed).
 
 The file maps node names to ``ros__parameters``; names are fully qualified (a leading '/' is
 implied), may be nested (``alice: {garment_sim_node: {ros__parameters: ...}}`` is
@@ -9,7 +9,6 @@ ones overriding earlier ones; nested parameter mappings become dotted names.
 
 from __future__ import annotations
 
-import os
 import re
 from pathlib import Path
 from typing import Any
@@ -86,26 +85,3 @@ def read_node_parameters(path: str | Path, node_fqn: str) -> dict[str, Any]:
     except yaml.YAMLError as err:
         raise ParamsFileError(f"{path}: not valid YAML: {err}") from None
     return node_parameters(data, node_fqn, str(path))
-
-
-class FileWatch:
-    """Tells when a file changed: its modification time or size differs from the last look."""
-
-    def __init__(self, path: str | Path):
-        self.path = Path(path)
-        self._seen: tuple[int, int] | None = None
-
-    def changed(self) -> bool:
-        """True on the first look, whenever the file changed since the last look, and when it has just
-        disappeared (reading it then reports the missing file); False while nothing changed."""
-        try:
-            info = os.stat(self.path)
-        except OSError:
-            changed = self._seen != (-1, -1)
-            self._seen = (-1, -1)
-            return changed
-        signature = (info.st_mtime_ns, info.st_size)
-        if signature == self._seen:
-            return False
-        self._seen = signature
-        return True

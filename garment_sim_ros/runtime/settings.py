@@ -11,11 +11,11 @@ allowed. The README's parameter section and the node's descriptors are made from
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 from ..cloth.garments import GARMENT_NAMES, MAX_RESOLUTION
 from ..cloth.spec import SpecError, resolve_garment
-from ..params import PARAMETERS, Param, ParameterError
+from ..params import PARAMETERS, Param, ParameterError, SolverParams
 
 RERUN_SINKS = ("off", "save", "connect", "serve")
 
@@ -128,12 +128,41 @@ NODE_PARAMETERS: tuple[NodeParam, ...] = (
               "refused whole and logged)"),
     NodeParam("params_file", "", "", None, None,
               "the parameter YAML to watch; empty: the last --params-file given at start"),
-    NodeParam("watch_period", 1.0, "s", 0.05, 60.0, "how often params_file's modification time is checked"),
+    NodeParam("watch_period", 1.0, "s", 0.05, 60.0,
+              "how often params_file (when watched) and the worn garments' spec and mesh files are checked for "
+              "changes"),
 )
 
 ALL_PARAMETERS: tuple[Param, ...] = PARAMETERS + NODE_PARAMETERS
 PARAMETER_ROWS: dict[str, Param] = {p.name: p for p in ALL_PARAMETERS}
 SOLVER_PARAMETER_NAMES = frozenset(p.name for p in PARAMETERS)
+
+
+def solver_params(values: Mapping[str, Any]) -> SolverParams:
+    """The solver's parameters among ``values`` (parameter name -> checked value, every solver row)."""
+    return SolverParams(**{name: values[name] for name in SOLVER_PARAMETER_NAMES})
+
+
+def refused_changes(changes: Mapping[str, Any], values: Mapping[str, Any]) -> dict[str, str]:
+    """Why each refused one of ``changes`` (name -> value checked against its row) cannot apply to a node
+    running with ``values``: read-only, a garment that does not resolve, a solver combination refused."""
+    refused = {name: f"{name}: read-only, set at start (--params-file or -p); running with {values[name]!r}, got "
+                     f"{value!r}" for name, value in changes.items() if is_read_only(name)}
+    changes = {name: value for name, value in changes.items() if name not in refused}
+    garment_keys = {"garments", "garment_path"} & changes.keys()
+    if garment_keys:
+        try:  # every garment named must resolve to a built-in or a valid spec
+            check_garments(changes.get("garments", values["garments"]),
+                           changes.get("garment_path", values["garment_path"]))
+        except ParameterError as err:
+            refused.update({name: str(err) for name in garment_keys})
+    solver_changes = SOLVER_PARAMETER_NAMES & changes.keys()
+    if solver_changes:
+        try:
+            solver_params({**values, **changes})  # the combination must be valid too
+        except ParameterError as err:
+            refused.update({name: str(err) for name in solver_changes})
+    return refused
 
 
 def is_read_only(name: str) -> bool:

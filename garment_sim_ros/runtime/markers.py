@@ -6,7 +6,7 @@
   diameters (``rerun_log.volume_ellipsoids``, so markers and Rerun show the same shapes).
 
 The meshes and volumes come in the shapes of ``rerun_log.frame_payload``; the result is
-``MarkerData`` for ``runtime.marker_cdr.serialize_marker_array``.
+``MarkerData`` for ``marker_cdr.serialize_marker_array``.
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ from typing import Sequence
 import numpy as np
 from numba import njit
 
-from .runtime.marker_cdr import ADD, DELETEALL, SPHERE, TRIANGLE_LIST, MarkerData
-from .shading import BODY_RGB
+from ..shading import BODY_RGB
+from .marker_cdr import ADD, DELETEALL, SPHERE, TRIANGLE_LIST, MarkerData
 
 VOLUME_ALPHA = 0.35  # see-through, so the garment inside a wide volume stays visible
 
