@@ -23,6 +23,15 @@ it; a one-piece needs the detailed body (``detailed_body`` in its spec), so the 
 Every garment comes from a spec (``cloth.spec``: a built-in's procedural source or the user's mesh),
 with its material's parameters in place of the run's. A mesh whose free vertices start inside the
 body's volumes on the rest pose is moved out before anything is simulated, and said so in ``notes``.
+
+Outfits (several garments): the garments are worn in the order of their specs' ``layer`` (0 closest to the
+skin), the outfit's order breaking ties (a garment named later is worn over one named earlier). Each
+garment is kept outside every garment worn under it (``cloth.layers``: the inner surface a collider for
+the outer, ``layer_thickness`` off it), once per frame after every garment's step against the body: the
+garments are separate solvers with their own substeps (their materials' own plans), and the frame's path
+pass catches what went through in between. An outer garment cut like an inner one (a skirt's waistband on
+the trousers') starts moved outside it, and an attachment lying on an inner garment's attachment of the
+same role is skinned as that one is (two bands carried differently would part).
 """
 
 from __future__ import annotations
@@ -40,6 +49,8 @@ from .body.pose_buffer import RootMotion, SampleStatus
 from .body.root import root_frame
 from .body.skeleton import SkeletonPose, forward_kinematics
 from .cloth.garments import GarmentMesh
+from .cloth.kernels import keep_where_inside
+from .cloth.layers import REACH_M, InnerSurface
 from .cloth.mesh_check import GarmentMeshError
 from .cloth.model import build_cloth_model
 from .cloth.solver import FrameInput, FrameReport, GarmentSolver
@@ -48,6 +59,8 @@ from .collision.collider import Collider
 from .params import SolverParams
 from .quality import GarmentMeter, free_point_depth
 from .transforms import compose, inverse, quat_slerp, yaw_quat
+
+SAME_BAND_M = 0.02  # an outer garment's attachment this close to an inner one's is carried as that one is
 
 
 def make_character(rest_pose: SkeletonPose, joint_map: dict[str, str], garments: Sequence[str | GarmentSpec],
@@ -77,14 +90,23 @@ class DressedCharacter:
         root_position, root_yaw = root_frame(rest, self.joint_map)
         to_root = inverse(root_position, yaw_quat(root_yaw))
         self.specs = [resolve_garment(g, garment_path) for g in garments]
+        # rows of ``self.solvers`` from the skin out: by layer, then outfit order; per garment, those it is worn over
+        self.layer_order = sorted(range(len(self.specs)), key=lambda r: (self.specs[r].layer, r))
+        self._inner = [self.layer_order[:self.layer_order.index(row)] for row in range(len(self.specs))]
+        self._tracked: dict[tuple[int, int], np.ndarray] = {}  # (outer, inner) row -> InnerSurface.separate's
         self.notes: list[str] = []  # what dressing changed on a garment (moved out of the body)
         self.solvers: list[GarmentSolver] = []
         rest_frames = [compose(*to_root, *rest.frame(f)) for f in body.volumes.frames]
         volume_poses = body.volumes.world_poses(np.array([p for p, _ in rest_frames]),
                                                 np.array([q for _, q in rest_frames]))
-        for spec in self.specs:
+        meshes: dict[int, GarmentMesh] = {}
+        for row in self.layer_order:  # inner garments first
+            spec = self.specs[row]
             mesh = self._out_of_body(build_mesh(spec, body.measurements, resolution, decimate_to), spec, volume_poses,
                                      params.replace(**spec.material))
+            meshes[row] = self._outside_of(mesh, spec, [meshes[i] for i in self._inner[row]], params)
+        for row, spec in enumerate(self.specs):
+            mesh = meshes[row]
             carriers = [*mesh.attachments, *(second for second, _ in mesh.shared_attachments.values())]
             missing = [role for role in carriers if role not in self.joint_map]
             if missing:
@@ -142,6 +164,69 @@ class DressedCharacter:
                           f"body (deepest {float(depth.max()) * 1e3:.0f} mm); moved out onto its surface")
         return dataclasses.replace(mesh, vertices=x)
 
+    def _outside_of(self, mesh: GarmentMesh, spec: GarmentSpec, inner_meshes: Sequence[GarmentMesh],
+                    params: SolverParams, passes: int = 3) -> GarmentMesh:
+        """``mesh`` moved outside the garments it is worn over (their rest shapes), ``layer_thickness`` off
+        them: an outer garment cut like an inner one (a skirt's waistband on the trousers') would start in it."""
+        if not inner_meshes:
+            return mesh
+        mesh = _carried_like(mesh, inner_meshes)
+        x = np.ascontiguousarray(mesh.vertices, dtype=np.float64).copy()
+        still, everywhere = np.zeros_like(x), np.ones(len(x), dtype=bool)
+        before = x.copy()
+        for inner in inner_meshes:
+            surface = InnerSurface(inner.vertices, inner.triangles, REACH_M)
+            tracked = np.full(len(x), -1, dtype=np.int64)
+            for _ in range(passes):
+                surface.separate(x, still, everywhere, mesh.edges(), params.layer_thickness, tracked)
+        moved = np.any(before != x, axis=1)
+        if moved.any():
+            self.notes.append(f"{spec.name}: {int(moved.sum())} vertices on or in the garments worn under it; "
+                              f"moved {params.layer_thickness * 1e3:g} mm outside them")
+        return dataclasses.replace(mesh, vertices=x)
+
+    def _separate_layers(self, rows: Sequence[int], previous: dict[int, np.ndarray]) -> None:
+        """After the frame's step against the body: every garment of ``rows`` kept outside those it is
+        worn over (``cloth.layers``), its path from its positions before the step (``previous``: row -> (N, 3)).
+        Inner garments first, so each outer one meets the inner ones where they end the frame."""
+        surfaces: dict[int, InnerSurface] = {}
+        for row in sorted(rows, key=lambda r: len(self._inner[r])):
+            solver = self.solvers[row]
+            state = solver.state
+            kept = (state.positions.copy(), state.velocities.copy())
+            for inner in self._inner[row]:
+                if inner not in surfaces:
+                    surfaces[inner] = InnerSurface(self.solvers[inner].state.positions,
+                                                   self.solvers[inner].model.triangles, REACH_M)
+                tracked = self._tracked.setdefault((row, inner), np.full(solver.model.num_points, -1, np.int64))
+                surfaces[inner].separate(state.positions, state.velocities, solver.constants.inv_mass > 0.0,
+                                         solver.model.edges, solver.params.layer_thickness, tracked, previous[row])
+            if solver.collider is not None:
+                # The body comes first: a point pushed off an inner garment into a volume (a forearm lying on
+                # the trousers at the hip) goes back to where the body's handling left it.
+                deeper = solver.collider.penetration_depths(state.positions) - solver.collider.penetration_depths(
+                    kept[0])
+                keep_where_inside(state.positions, state.velocities, *kept, deeper - 1e-6)
+
+    def layer_crossings(self) -> list[int]:
+        """Per garment, how many of its edges cross a triangle of a garment worn under it (0 for the
+        innermost and for a garment worn alone): the layers' bone-through-cloth check."""
+        surfaces: dict[int, InnerSurface] = {}
+        counts = []
+        for row, solver in enumerate(self.solvers):
+            count = 0
+            for inner in self._inner[row]:
+                if inner not in surfaces:
+                    surfaces[inner] = InnerSurface(self.solvers[inner].state.positions,
+                                                   self.solvers[inner].model.triangles, REACH_M)
+                count += surfaces[inner].edges_through(solver.state.positions, solver.model.edges)
+            counts.append(count)
+        return counts
+
+    def _layered_rows(self, solvers: Sequence[GarmentSolver]) -> list[int]:
+        """Rows of ``solvers`` worn over another garment."""
+        return [row for row, solver in enumerate(self.solvers) if self._inner[row] and solver in solvers]
+
     def _frame_poses(self, pose: SkeletonPose, frames: Sequence[str]):
         index = [pose.skeleton.index(f) for f in frames]
         return pose.positions[index], pose.rotations[index]
@@ -187,8 +272,10 @@ class DressedCharacter:
         # Blend, then hold the pose so the garments come to rest on it.
         t = start
         previous = (fp, fq)
+        layered = self._layered_rows(solvers)
         for k in range(steps + hold_frames):
             current = blended(min(1.0, (k + 1) / steps))
+            before = {row: self.solvers[row].state.positions.copy() for row in layered}
             for solver, sel in zip(solvers, selections):
                 solver.advance(FrameInput(
                     t0=t, t1=t + frame_s, root_position0=root_position, root_yaw0=root_yaw,
@@ -196,6 +283,7 @@ class DressedCharacter:
                     yaw_rate=0.0, yaw_acceleration=0.0, frame_positions0=previous[0][sel],
                     frame_rotations0=previous[1][sel], frame_positions1=current[0][sel],
                     frame_rotations1=current[1][sel]))
+            self._separate_layers(layered, before)
             previous = current
             t += frame_s
         for solver, params in zip(solvers, running):
@@ -211,11 +299,14 @@ class DressedCharacter:
         p0, q0 = self._frame_poses(previous_pose, self.frames)
         p1, q1 = self._frame_poses(pose, self.frames)
         reports = []
+        layered = self._layered_rows(self.solvers)
+        before = {row: self.solvers[row].state.positions.copy() for row in layered}
         for solver in self.solvers:
             sel = self._rows[id(solver)]
             frame = FrameInput.between(t0=previous_time, motion0=start_motion, poses0=(p0[sel], q0[sel]),
                                        t1=time_s, motion1=motion, poses1=(p1[sel], q1[sel]))
             reports.append(solver.advance(frame))
+        self._separate_layers(layered, before)
         # The guard re-fitted a garment that ran away (cloth.solver): its rest shape, moved onto the
         # new pose, may cross the limbs; put it on again from the rest pose instead, quickly.
         refitted = [s for s, r in zip(self.solvers, reports) if r.recovery == "refitted"]
@@ -236,6 +327,9 @@ class DressedCharacter:
         volume_poses = volumes.world_poses(*self._frame_poses(pose, volumes.frames))
         for meter, solver, report, positions in zip(self._meters, self.solvers, reports, self.world_positions()):
             meter.measure(report, solver, positions, pose, *volume_poses)
+        if len(self.solvers) > 1:
+            for report, crossings in zip(reports, self.layer_crossings()):
+                report.layer_crossings = crossings
 
     @property
     def root(self) -> RootMotion | None:
@@ -253,6 +347,25 @@ class DressedCharacter:
         Attached points are left out: they ride on their segment wherever it puts them (a strapless
         dress's neckline runs under the arms' volumes)."""
         return max((free_point_depth(solver) for solver in self.solvers), default=0.0)
+
+
+def _carried_like(mesh: GarmentMesh, inner_meshes: Sequence[GarmentMesh]) -> GarmentMesh:
+    """``mesh`` with an attachment that lies on an inner garment's attachment of the same role (a skirt's
+    waistband on the trousers', every vertex within ``SAME_BAND_M`` of it) skinned as that one is: two bands
+    carried differently would part, and the outer one, whose points cannot be pushed, would pass through."""
+    shared = dict(mesh.shared_attachments)
+    for role, ids in mesh.attachments.items():
+        for inner in inner_meshes:
+            if role not in inner.attachments:
+                continue
+            band = inner.vertices[inner.attachments[role]]
+            gaps = np.linalg.norm(mesh.vertices[ids][:, None, :] - band[None, :, :], axis=2).min(axis=1)
+            if np.all(gaps <= SAME_BAND_M):
+                shared.pop(role, None)
+                if role in inner.shared_attachments:
+                    shared[role] = inner.shared_attachments[role]
+                break
+    return dataclasses.replace(mesh, shared_attachments=shared)
 
 
 def _in_root_frame(pose: SkeletonPose, joint_map) -> SkeletonPose:

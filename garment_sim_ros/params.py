@@ -137,6 +137,9 @@ PARAMETERS: tuple[Param, ...] = (
           "another volume (a pinch: a hand on the hip); contact wins there"),
     Param("collision_mode", "adaptive", "", None, None,
           "adaptive (memo §6.2.1), static only or dynamic only", COLLISION_MODES),
+    # layers (garments worn over each other)
+    Param("layer_thickness", 0.004, "m", 0.0, 0.05,
+          "an outer garment's points are kept this far outside an inner garment's surface"),
 )
 
 PARAMETER_TABLE = {p.name: p for p in PARAMETERS}
@@ -177,6 +180,7 @@ class SolverParams:
     max_distance: float
     pinch_depth: float
     collision_mode: str
+    layer_thickness: float
 
     def __post_init__(self):
         for f in fields(self):

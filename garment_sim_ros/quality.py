@@ -9,7 +9,9 @@ measured by:
 - (c) trouser legs off their leg: a limb tube of the garment (``GarmentMesh.limb_tubes``) one of whose
   rings goes round none of its limb's volumes (winding number about the volume's axis);
 - (d) structural and shear stretch (length / rest length): 99th percentile and maximum;
-- (e) guard firings (``FrameReport.recovery``), counted by the callers.
+- (e) guard firings (``FrameReport.recovery``), counted by the callers;
+- (f) in an outfit, layer crossings: a garment's edges through a triangle of one worn under it
+  (``cloth.layers.count_edges_through``; ``DressedCharacter.measure`` fills it).
 
 ``GarmentMeter.measure`` fills a ``FrameReport``'s figures; ``DressedCharacter.step`` calls it
 after every frame. ``Targets`` is the one table of pass/fail thresholds (``garment-sim evaluate``).
@@ -237,6 +239,7 @@ REPORT_SCALARS: tuple[tuple[str, str, float], ...] = (
     ("structural_stretch_max", "structural_stretch_max", 1.0),
     ("shear_stretch_p99", "shear_stretch_p99", 1.0),
     ("shear_stretch_max", "shear_stretch_max", 1.0),
+    ("layer_crossings", "layer_crossings", 1.0),
 )
 
 
@@ -258,7 +261,9 @@ class Targets:
       frames, and never deeper than ``depth_never_m``;
     - (d) stretch (structural and shear) 99th percentile at most ``stretch_p99`` in every frame and
       no spring beyond ``stretch_max`` times its rest length;
-    - (e) the guard never fires.
+    - (e) the guard never fires;
+    - (f) an outfit's outer garments: no edge through a triangle of a garment worn under it in any frame
+      (issue 13; not asked of one garment).
 
     From ``fast_speed`` times playback on only (b), (c), (e) and ``depth_never_m`` are asked.
     """
@@ -287,6 +292,7 @@ class Targets:
             "a": depth_ok,
             "d": None if fast else stretch_ok,
             "e": row["guard_firings"] == 0,
+            "f": row["layer_crossing_frames"] == 0 if "layer_crossing_frames" in row else None,
         }
 
 

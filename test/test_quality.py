@@ -209,7 +209,9 @@ def row(**changes) -> dict:
 
 
 def test_the_targets_table_judges_each_letter_and_asks_less_at_fast_playback():
-    assert TARGETS.judge(row()) == {"b": True, "c": True, "a": True, "d": True, "e": True}
+    assert TARGETS.judge(row()) == {"b": True, "c": True, "a": True, "d": True, "e": True, "f": None}
+    assert TARGETS.judge(row(layer_crossing_frames=0))["f"] is True  # an outfit
+    assert TARGETS.judge(row(layer_crossing_frames=1))["f"] is False
     assert TARGETS.judge(row(limb_tubes=0))["c"] is None  # a skirt has no trouser legs
     assert TARGETS.judge(row(bones_frames=1))["b"] is False
     assert TARGETS.judge(row(legs_off_frames=1))["c"] is False
@@ -219,7 +221,7 @@ def test_the_targets_table_judges_each_letter_and_asks_less_at_fast_playback():
     assert TARGETS.judge(row(structural_stretch_max=1.51))["d"] is False
     assert TARGETS.judge(row(guard_firings=1))["e"] is False
     fast = TARGETS.judge(row(speed=3.0, deep_frames=500, structural_stretch_max=4.0))
-    assert fast == {"b": True, "c": True, "a": True, "d": None, "e": True}
+    assert fast == {"b": True, "c": True, "a": True, "d": None, "e": True, "f": None}
     assert TARGETS.judge(row(speed=3.0, max_depth_mm=5.0))["a"] is False  # under 5 mm at 3x
 
 
@@ -243,7 +245,7 @@ def test_evaluate_json_rows_and_summary_on_a_real_clip():
         assert set(r) == ROW_KEYS
         assert r["clip"] == "xia_old_13_000" and r["speed"] == 1.0
         assert r["frames"] == round(0.2 * r["fps"])
-        assert set(r["targets"]) == {"a", "b", "c", "d", "e"}
+        assert set(r["targets"]) == {"a", "b", "c", "d", "e", "f"} and r["targets"]["f"] is None  # one garment
         assert r["passed"] == all(v is not False for v in r["targets"].values())
         assert r["structural_stretch_max"] >= r["structural_stretch_p99"] >= 0.9
     assert [r["limb_tubes"] for r in rows] == [2, 2, 0, 0] and rows[2]["targets"]["c"] is None

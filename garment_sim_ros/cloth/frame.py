@@ -90,3 +90,4 @@ class FrameReport:
     structural_stretch_max: float = 0.0  # (d) largest structural length / rest length
     shear_stretch_p99: float = 0.0  # (d) 99th percentile of shear spring length / rest length
     shear_stretch_max: float = 0.0  # (d) largest shear length / rest length
+    layer_crossings: int = 0  # (f) edges of the garment crossing a triangle of one worn under it (outfits)

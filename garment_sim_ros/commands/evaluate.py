@@ -6,6 +6,12 @@ at that speed, sampled at that frame rate, and drives ``DressedCharacter`` exact
 (``garment_sim_ros.quality``, filled into every ``FrameReport``) are gathered from the first
 frame after dressing to the clip's end (or ``--duration``) and judged against
 ``quality.TARGETS``. Exit status: 0 when every run passes, 1 when one fails, 2 on bad input.
+
+An outfit is one run: ``--garments pants+long_skirt,one_piece+pants`` is two runs, each of two garments
+worn together (``+`` joins the garments of an outfit, ``,`` separates runs). Its row holds the outfit's
+figures (a frame counts when any garment fails it), ``layer_crossing_frames`` / ``layer_crossings_max``
+(outer garments' edges through an inner garment's triangles, target (f)) and ``layers``, each garment's
+own figures.
 """
 
 from __future__ import annotations
@@ -28,7 +34,8 @@ from .simulate import DECIMATE_HELP, GARMENTS_HELP
 HELP = ("Play BVH clips once through on the dressed character, each garment at each playback speed and frame "
         "rate, and judge how well the garments stay on: limb bones through the cloth, trouser legs off their "
         "leg, free points inside the body, stretch, guard firings; one row per run and a summary.")
-TARGET_NAMES = {"b": "bones", "c": "legs", "a": "depth", "d": "stretch", "e": "guard"}  # the issue's letters
+TARGET_NAMES = {"b": "bones", "c": "legs", "a": "depth", "d": "stretch", "e": "guard",  # issue 11's letters
+                "f": "layers"}  # issue 13's: an outer garment through an inner one
 
 
 @dataclass(frozen=True)
@@ -36,7 +43,7 @@ class Run:
     """One evaluation run."""
 
     clip: str  # BVH file
-    garment: str  # a built-in's name, a spec file or a spec's name in config/garments/
+    garment: str  # a built-in's name, a spec file or a spec's name in config/garments/; an outfit joins them by +
     speed: float  # playback speed, x
     fps: float  # frame rate of the run, Hz
     duration: float | None = None  # body seconds after dressing at most (None: to the clip's end)
@@ -47,7 +54,9 @@ class Run:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("clips", nargs="+", metavar="CLIP.bvh", help="BVH clips to play")
-    parser.add_argument("--garments", default="all", help=f"{GARMENTS_HELP}; or all (the built-ins)")
+    parser.add_argument("--garments", default="all",
+                        help=f"{GARMENTS_HELP}, one run each; or all (the built-ins); garments joined by + are "
+                             "one run of an outfit worn together (pants+long_skirt)")
     parser.add_argument("--speeds", default="1", help="comma-separated playback speeds (default 1)")
     parser.add_argument("--fps", default="60", help="comma-separated frame rates, Hz (default 60)")
     parser.add_argument("--duration", type=float, default=None,
@@ -70,10 +79,11 @@ def _numbers(option: str, text: str) -> list[float]:
 
 
 def plan(args) -> list[Run]:
-    """The runs the arguments ask for, clip by clip, then garment, speed, frame rate."""
-    from .simulate import parse_garments
+    """The runs the arguments ask for, clip by clip, then garment (or outfit), speed, frame rate."""
+    from .simulate import parse_outfits
 
-    garments = list(GARMENT_NAMES) if args.garments.strip() == "all" else parse_garments(args.garments)
+    garments = (list(GARMENT_NAMES) if args.garments.strip() == "all"
+                else ["+".join(outfit) for outfit in parse_outfits(args.garments)])
     speeds, rates = _numbers("--speeds", args.speeds), _numbers("--fps", args.fps)
     if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
         raise ValueError(f"--duration must be > 0, got {args.duration}")
@@ -89,13 +99,16 @@ def plan(args) -> list[Run]:
 def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
     """Play ``run`` and return its row, over the frames after dressing:
 
-    ``clip`` (file stem), ``garment``, ``speed`` (x), ``fps`` (Hz), ``frames``; ``bones_frames`` (frames
-    with a limb bone through the cloth) and ``bones_max`` (most bones at once); ``limb_tubes`` (the
-    garment's trouser legs) and ``legs_off_frames``; ``deep_frames`` / ``deep_share`` (frames with a
-    free point deeper than ``Targets.depth_tolerance_m``) and ``max_depth_mm``;
+    ``clip`` (file stem), ``garment`` (an outfit's names joined by +), ``speed`` (x), ``fps`` (Hz), ``frames``;
+    ``bones_frames`` (frames with a limb bone through the cloth) and ``bones_max`` (most bones at once);
+    ``limb_tubes`` (the garment's trouser legs) and ``legs_off_frames``; ``deep_frames`` / ``deep_share``
+    (frames with a free point deeper than ``Targets.depth_tolerance_m``) and ``max_depth_mm``;
     ``structural_stretch_p99`` / ``shear_stretch_p99`` (the worst frame's 99th percentile of length /
     rest length) and ``..._max`` (the longest spring); ``guard_firings`` (frames);
-    ``targets`` (``quality.Targets.judge``), ``passed`` and ``wall_s``.
+    ``targets`` (``quality.Targets.judge``), ``passed`` and ``wall_s``. An outfit's frame counts when any
+    of its garments fails it; it adds ``layer_crossing_frames`` (frames with an outer garment's edge through
+    an inner garment's triangle), ``layer_crossings_max`` (most such edges at once) and ``layers``: per
+    garment, inner first, its own figures (the keys above from ``bones_frames`` to ``guard_firings``).
     ``after_dressing(character)`` is called once the garments are on (a test moves the cloth there)."""
     from ..body.sources import bvh_source
     from ..dressing import make_character
@@ -104,40 +117,52 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
 
     tic = time.perf_counter()
     source = bvh_source(run.clip, loop=False, speed=run.speed)
-    character = make_character(source.rest_pose, source.joint_map, [run.garment], preset(run.preset), run.resolution,
-                               decimate_to=run.decimate, motion=source.fit_poses())
+    character = make_character(source.rest_pose, source.joint_map, run.garment.split("+"), preset(run.preset),
+                               run.resolution, decimate_to=run.decimate, motion=source.fit_poses())
     seconds = source.duration if run.duration is None else min(source.duration, run.duration)
     frames = int(math.floor(seconds * run.fps + 1e-9))
     if frames < 1:
         raise ValueError(f"{run.clip}: {seconds:.4f} s at {run.speed:g}x is shorter than one frame at {run.fps:g} fps")
-    depth, bones = np.zeros(frames), np.zeros(frames, dtype=np.int64)
-    legs_off, guard = np.zeros(frames, dtype=np.int64), np.zeros(frames, dtype=bool)
-    stretch = np.zeros((frames, 4))  # structural p99, max, shear p99, max
+    worn = len(character.solvers)
+    depth, bones = np.zeros((frames, worn)), np.zeros((frames, worn), dtype=np.int64)
+    legs_off, guard = np.zeros((frames, worn), dtype=np.int64), np.zeros((frames, worn), dtype=bool)
+    crossings = np.zeros((frames, worn), dtype=np.int64)
+    stretch = np.zeros((frames, worn, 4))  # structural p99, max, shear p99, max
     steps = simulate_frames(source, character, np.arange(frames + 1) / run.fps)
     for k, (_, _, reports) in enumerate(steps):
         if reports is None:  # the dressing
             if after_dressing is not None:
                 after_dressing(character)
             continue
-        report = reports[0]
-        depth[k - 1], bones[k - 1], legs_off[k - 1] = report.max_depth_m, report.bones_through, report.legs_off
-        guard[k - 1] = bool(report.recovery)
-        stretch[k - 1] = (report.structural_stretch_p99, report.structural_stretch_max,
-                          report.shear_stretch_p99, report.shear_stretch_max)
-    worst = stretch.max(axis=0)
-    row = {
-        "clip": Path(run.clip).stem, "garment": character.garment_names[0], "speed": run.speed, "fps": run.fps,
-        "frames": frames,
-        "bones_frames": int(np.count_nonzero(bones)), "bones_max": int(bones.max()),
-        "limb_tubes": len(character.solvers[0].model.limb_tubes),  # trouser legs: 2 for pants
-        "legs_off_frames": int(np.count_nonzero(legs_off)),
-        "deep_frames": int(np.count_nonzero(depth > TARGETS.depth_tolerance_m)),
-        "deep_share": float(np.count_nonzero(depth > TARGETS.depth_tolerance_m) / frames),
-        "max_depth_mm": float(depth.max() * 1e3),
-        "structural_stretch_p99": float(worst[0]), "structural_stretch_max": float(worst[1]),
-        "shear_stretch_p99": float(worst[2]), "shear_stretch_max": float(worst[3]),
-        "guard_firings": int(np.count_nonzero(guard)),
-    }
+        for g, report in enumerate(reports):
+            depth[k - 1, g], bones[k - 1, g], legs_off[k - 1, g] = (report.max_depth_m, report.bones_through,
+                                                                    report.legs_off)
+            guard[k - 1, g], crossings[k - 1, g] = bool(report.recovery), report.layer_crossings
+            stretch[k - 1, g] = (report.structural_stretch_p99, report.structural_stretch_max,
+                                 report.shear_stretch_p99, report.shear_stretch_max)
+
+    def figures(garments) -> dict:
+        """The figures of the garments (columns) ``garments``: a frame counts when any of them fails it."""
+        deep = np.count_nonzero(np.any(depth[:, garments] > TARGETS.depth_tolerance_m, axis=1))
+        worst = stretch[:, garments].max(axis=(0, 1))
+        return {
+            "bones_frames": int(np.count_nonzero(bones[:, garments].sum(axis=1))),
+            "bones_max": int(bones[:, garments].sum(axis=1).max()),
+            "limb_tubes": sum(len(character.solvers[g].model.limb_tubes) for g in garments),  # trouser legs
+            "legs_off_frames": int(np.count_nonzero(legs_off[:, garments].sum(axis=1))),
+            "deep_frames": int(deep), "deep_share": float(deep / frames),
+            "max_depth_mm": float(depth[:, garments].max() * 1e3),
+            "structural_stretch_p99": float(worst[0]), "structural_stretch_max": float(worst[1]),
+            "shear_stretch_p99": float(worst[2]), "shear_stretch_max": float(worst[3]),
+            "guard_firings": int(np.count_nonzero(np.any(guard[:, garments], axis=1))),
+        }
+
+    row = {"clip": Path(run.clip).stem, "garment": "+".join(character.garment_names), "speed": run.speed,
+           "fps": run.fps, "frames": frames, **figures(list(range(worn)))}
+    if worn > 1:
+        row["layer_crossing_frames"] = int(np.count_nonzero(crossings.sum(axis=1)))
+        row["layer_crossings_max"] = int(crossings.sum(axis=1).max())
+        row["layers"] = [{"garment": character.garment_names[g], **figures([g])} for g in character.layer_order]
     row["targets"] = TARGETS.judge(row)
     row["passed"] = all(v is not False for v in row["targets"].values())
     row["wall_s"] = round(time.perf_counter() - tic, 2)  # for the reader only; nothing is judged on it
@@ -187,18 +212,27 @@ def _verdict(row: dict) -> str:
     return "PASS" if not failed else "FAIL " + ",".join(failed)
 
 
-HEADER = (f"{'clip':<40} {'garment':<11} {'speed':>5} {'fps':>4} {'frames':>6}  {'bones frm/max':>13}  "
+HEADER = (f"{'clip':<40} {'garment':<16} {'speed':>5} {'fps':>4} {'frames':>6}  {'bones frm/max':>13}  "
           f"{'legs off':>8}  {'>1mm %':>6} {'max mm':>7}  {'struct p99/max':>14}  {'shear p99/max':>13}  "
-          f"{'guard':>5}  result")
+          f"{'guard':>5}  {'layers frm/max':>14}  result")
+
+
+def _figures_text(row: dict) -> str:
+    legs = f"{row['legs_off_frames']}" if row["limb_tubes"] else "-"
+    return (f"{row['bones_frames']:>9}/{row['bones_max']:<3}  {legs:>8}  {100 * row['deep_share']:>6.1f} "
+            f"{row['max_depth_mm']:>7.1f}  {row['structural_stretch_p99']:>6.2f}/{row['structural_stretch_max']:<7.2f}"
+            f"  {row['shear_stretch_p99']:>5.2f}/{row['shear_stretch_max']:<7.2f}  {row['guard_firings']:>5}")
 
 
 def format_row(row: dict) -> str:
-    legs = f"{row['legs_off_frames']}" if row["limb_tubes"] else "-"
-    return (f"{row['clip'][:40]:<40} {row['garment']:<11} {row['speed']:>4g}x {row['fps']:>4g} {row['frames']:>6}  "
-            f"{row['bones_frames']:>9}/{row['bones_max']:<3}  {legs:>8}  {100 * row['deep_share']:>6.1f} "
-            f"{row['max_depth_mm']:>7.1f}  {row['structural_stretch_p99']:>6.2f}/{row['structural_stretch_max']:<7.2f}"
-            f"  {row['shear_stretch_p99']:>5.2f}/{row['shear_stretch_max']:<7.2f}  {row['guard_firings']:>5}"
-            f"  {_verdict(row)}")
+    """A run's line; an outfit's is followed by one line per garment, inner first (its own figures)."""
+    layers = (f"{row['layer_crossing_frames']:>10}/{row['layer_crossings_max']:<3}" if "layers" in row
+              else f"{'-':>14}")
+    lines = [f"{row['clip'][:40]:<40} {row['garment'][:16]:<16} {row['speed']:>4g}x {row['fps']:>4g} "
+             f"{row['frames']:>6}  {_figures_text(row)}  {layers}  {_verdict(row)}"]
+    for layer in row.get("layers", ()):
+        lines.append(f"{'':<40}   {layer['garment'][:14]:<14} {'':>5} {'':>4} {'':>6}  {_figures_text(layer)}")
+    return "\n".join(lines)
 
 
 def format_summary(summary: dict) -> str:

@@ -50,6 +50,15 @@ def parse_garments(text: str) -> list[str]:
     return [g.strip() for g in text.split(",") if g.strip()]
 
 
+def parse_outfits(text: str) -> list[list[str]]:
+    """``'long_skirt,pants+short_skirt'`` -> ``[['long_skirt'], ['pants', 'short_skirt']]``: ``,`` separates
+    outfits, ``+`` joins the garments of one worn together (``SpecError`` names a bad or repeated one)."""
+    outfits = [parse_garments(outfit.replace("+", ",")) for outfit in text.split(",") if outfit.strip()]
+    if not outfits:
+        raise ValueError(f"--garments: no outfit in {text!r}; e.g. pants+long_skirt")
+    return outfits
+
+
 def simulate_frames(source, character, times):
     """Dress ``character`` on ``source`` at ``times[0]``, then step it to each later time. Yields
     ``(t, pose, reports)`` per time, ``reports`` None for a dressing: the one run loop of ``simulate``,

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..body.sources import GAITS, bvh_source, procedural_source
 from ..render import VIEWS, render_character
-from .simulate import DECIMATE_HELP, parse_garments
+from .simulate import DECIMATE_HELP, parse_outfits
 
 HELP = ("Render PNG pictures offscreen: the procedural walking character (or a --bvh clip) dressed and "
         "simulated (no ROS) for --time seconds, one panel per outfit side by side (dressed_<clip>.png); with "
@@ -50,14 +50,6 @@ def parse_size(text: str) -> tuple[int, int]:
     if not (64 <= width <= 4096 and 64 <= height <= 4096):
         raise ValueError(f"--size: each side must be in [64, 4096] pixels, got {text!r}")
     return width, height
-
-
-def parse_outfits(text: str) -> list[list[str]]:
-    """``'long_skirt,pants+short_skirt'`` -> ``[['long_skirt'], ['pants', 'short_skirt']]``."""
-    outfits = [parse_garments(outfit.replace("+", ",")) for outfit in text.split(",") if outfit.strip()]
-    if not outfits:
-        raise ValueError(f"--garments: no outfit in {text!r}; e.g. {DEFAULT_OUTFITS}")
-    return outfits
 
 
 def dressed_at(source, garments: list[str], time_s: float, fps: float, resolution: float,

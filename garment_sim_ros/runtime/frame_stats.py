@@ -20,7 +20,7 @@ import numpy as np
 from ..cloth.solver import FrameReport
 from ..quality import REPORT_SCALARS
 
-_COUNTS = ("bones_through", "legs_off")  # add up over the garments; the stretch ratios take the worst
+_COUNTS = ("bones_through", "legs_off", "layer_crossings")  # add up over the garments; stretch takes the worst
 
 
 class FrameStats:

@@ -1,0 +1,379 @@
+"""Layered garments: an inner garment's surface as a collider for an outer one (numba kernels).
+
+After the body volumes (each garment's own frame step; ``dressing.DressedCharacter`` runs this once per
+frame, see there), every outer garment is kept on the outside of every inner garment's surface,
+``thickness`` off it (``params.layer_thickness``), in four passes over the outer garment, with the
+inner garment's triangles (outward normals: counter-clockwise seen from outside) binned into a uniform
+grid (the broad phase: each triangle in every cell its box grown by ``reach`` touches):
+
+1. path: a point whose motion over the frame (``x_prev`` -> ``x``) went through an inner triangle from
+   its outer side is put back on that side, at the crossing;
+2. point-triangle proximity: a point over an inner triangle (its projection inside the triangle) closer
+   than ``reach`` and less than ``thickness`` outside it goes to ``thickness`` outside; first the
+   triangle it was over at the last call, however far the inner garment moved into it (the body
+   pushes the inner garment out through a resting outer one);
+3. edge-edge proximity: an outer edge closer than ``thickness`` to an inner triangle's edge, less than
+   ``thickness`` outside that triangle, has its two ends moved out along the triangle's normal, each
+   by its share (the ends' barycentric weights), so that the closest point ends ``thickness`` out; this
+   is what catches an outer edge over a ridge of the inner garment, where its ends are over no triangle;
+4. edge-triangle: an outer edge still through an inner triangle has its end on the inner side pushed
+   out when that end is less than ``reach`` through (an edge across a fold); an edge straddling a whole
+   tube or fold is left to the points' passes.
+
+The inner garment is not moved (one-way coupling: it is pressed by the body only; the outer one is the
+lighter drape over it). Points pushed lose their velocity into the inner surface. All in the simulation
+(root) frame, metres. ``count_edges_through`` is the layers' bone-through-cloth check: outer edges
+crossing an inner triangle, through the same grid.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..collision.crossing import segment_crosses_triangle, segment_misses_triangle_box
+
+REACH_M = 0.05  # m: an outer point this close over an inner garment's triangle is checked against it
+_SETTLED = 1e-6  # m: a point this close to the thickness is where it belongs (no sweep for rounding)
+SWEEPS = 3  # separate's passes run again while they move a point, at most this many times
+_TRACK_DEPTH = 0.05  # m: a point this far behind the triangle it was over has not been pushed through it
+
+
+@njit(cache=True)
+def build_grid(y, triangles, pad, cell):
+    """Triangles of points ``y`` (M, 3) binned into cubic cells of ``cell`` m, each in every cell its box
+    grown by ``pad`` m touches. Returns (origin (3,) m, dims (3,) int, starts (C+1,), entries) with cell
+    ``(i * dims[1] + j) * dims[2] + k`` holding ``entries[starts[key]:starts[key + 1]]``."""
+    lo = np.empty(3)
+    hi = np.empty(3)
+    for k in range(3):
+        lo[k] = y[:, k].min() - pad - 1e-6
+        hi[k] = y[:, k].max() + pad + 1e-6
+    dims = np.empty(3, dtype=np.int64)
+    for k in range(3):
+        dims[k] = int((hi[k] - lo[k]) / cell) + 1
+    counts = np.zeros(dims[0] * dims[1] * dims[2] + 1, dtype=np.int64)
+    starts = counts
+    entries = np.empty(0, dtype=np.int64)
+    fill = counts
+    for phase in range(2):
+        if phase == 1:
+            starts = np.cumsum(counts)
+            entries = np.empty(starts[-1], dtype=np.int64)
+            fill = starts[:-1].copy()
+        for t in range(triangles.shape[0]):
+            a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+            i0 = int((min(y[a, 0], y[b, 0], y[c, 0]) - pad - lo[0]) / cell)
+            i1 = int((max(y[a, 0], y[b, 0], y[c, 0]) + pad - lo[0]) / cell)
+            j0 = int((min(y[a, 1], y[b, 1], y[c, 1]) - pad - lo[1]) / cell)
+            j1 = int((max(y[a, 1], y[b, 1], y[c, 1]) + pad - lo[1]) / cell)
+            k0 = int((min(y[a, 2], y[b, 2], y[c, 2]) - pad - lo[2]) / cell)
+            k1 = int((max(y[a, 2], y[b, 2], y[c, 2]) + pad - lo[2]) / cell)
+            for i in range(max(i0, 0), min(i1, dims[0] - 1) + 1):
+                for j in range(max(j0, 0), min(j1, dims[1] - 1) + 1):
+                    for k in range(max(k0, 0), min(k1, dims[2] - 1) + 1):
+                        key = (i * dims[1] + j) * dims[2] + k
+                        if phase == 0:
+                            counts[key + 1] += 1
+                        else:
+                            entries[fill[key]] = t
+                            fill[key] += 1
+    return lo, dims, starts, entries
+
+
+@njit(cache=True)
+def triangle_normals(y, triangles, normals):
+    """Unit normals (T, 3) of the triangles of ``y`` (0 for a degenerate one), written to ``normals``."""
+    for t in range(triangles.shape[0]):
+        a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+        e1x, e1y, e1z = y[b, 0] - y[a, 0], y[b, 1] - y[a, 1], y[b, 2] - y[a, 2]
+        e2x, e2y, e2z = y[c, 0] - y[a, 0], y[c, 1] - y[a, 1], y[c, 2] - y[a, 2]
+        nx, ny, nz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+        norm = math.sqrt(nx * nx + ny * ny + nz * nz)
+        scale = 1.0 / norm if norm > 1e-12 else 0.0
+        normals[t, 0], normals[t, 1], normals[t, 2] = nx * scale, ny * scale, nz * scale
+
+
+@njit(cache=True, inline="always")
+def _cell_range(lo_p, hi_p, origin, dims, cell, axis):
+    """The grid cells along ``axis`` a coordinate range touches (first, last + 1)."""
+    first = max(int(math.floor((lo_p - origin[axis]) / cell)), 0)
+    last = min(int(math.floor((hi_p - origin[axis]) / cell)), dims[axis] - 1)
+    return first, last + 1
+
+
+@njit(cache=True, inline="always")
+def _near_segment(px, py, pz, qx, qy, qz, origin, dims, cell, starts, entries, stamp, query, found):
+    """The triangles binned in the cells the box of segment p -> q touches, each once, written to ``found``
+    (T,); returns how many. ``stamp`` (T,) holds the last query that found each triangle; ``query`` is new."""
+    count = 0
+    i0, i1 = _cell_range(min(px, qx), max(px, qx), origin, dims, cell, 0)
+    j0, j1 = _cell_range(min(py, qy), max(py, qy), origin, dims, cell, 1)
+    k0, k1 = _cell_range(min(pz, qz), max(pz, qz), origin, dims, cell, 2)
+    for ci in range(i0, i1):
+        for cj in range(j0, j1):
+            for ck in range(k0, k1):
+                key = (ci * dims[1] + cj) * dims[2] + ck
+                for e in range(starts[key], starts[key + 1]):
+                    t = entries[e]
+                    if stamp[t] != query:
+                        stamp[t] = query
+                        found[count] = t
+                        count += 1
+    return count
+
+
+@njit(cache=True, inline="always")
+def _over(px, py, pz, y, a, b, c, nx, ny, nz):
+    """Whether the point's projection on the triangle's plane is inside the triangle (edges included)."""
+    for (i, j) in ((a, b), (b, c), (c, a)):
+        ex, ey, ez = y[j, 0] - y[i, 0], y[j, 1] - y[i, 1], y[j, 2] - y[i, 2]
+        rx, ry, rz = px - y[i, 0], py - y[i, 1], pz - y[i, 2]
+        # (e x r) . n >= 0 on the inner side of edge i -> j for a counter-clockwise triangle
+        if (ey * rz - ez * ry) * nx + (ez * rx - ex * rz) * ny + (ex * ry - ey * rx) * nz < -1e-12:
+            return False
+    return True
+
+
+@njit(cache=True, inline="always")
+def _height(x, i, y, a, normals, t):
+    """Signed distance of point i of ``x`` above the plane of triangle t (vertex a of ``y``), m."""
+    return ((x[i, 0] - y[a, 0]) * normals[t, 0] + (x[i, 1] - y[a, 1]) * normals[t, 1]
+            + (x[i, 2] - y[a, 2]) * normals[t, 2])
+
+
+@njit(cache=True, inline="always")
+def _push(x, v, i, normals, t, distance):
+    """Move point i by ``distance`` along triangle t's normal and take away its velocity into the surface."""
+    nx, ny, nz = normals[t, 0], normals[t, 1], normals[t, 2]
+    x[i, 0] += distance * nx
+    x[i, 1] += distance * ny
+    x[i, 2] += distance * nz
+    vn = v[i, 0] * nx + v[i, 1] * ny + v[i, 2] * nz
+    if vn < 0.0:
+        v[i, 0] -= vn * nx
+        v[i, 1] -= vn * ny
+        v[i, 2] -= vn * nz
+
+
+@njit(cache=True, inline="always")
+def _closest_between_segments(x, p0, p1, y, q0, q1):
+    """Parameters (s, r) of the closest points p0 + s (p1 - p0) and q0 + r (q1 - q0), and their distance."""
+    d1x, d1y, d1z = x[p1, 0] - x[p0, 0], x[p1, 1] - x[p0, 1], x[p1, 2] - x[p0, 2]
+    d2x, d2y, d2z = y[q1, 0] - y[q0, 0], y[q1, 1] - y[q0, 1], y[q1, 2] - y[q0, 2]
+    rx, ry, rz = x[p0, 0] - y[q0, 0], x[p0, 1] - y[q0, 1], x[p0, 2] - y[q0, 2]
+    a = d1x * d1x + d1y * d1y + d1z * d1z
+    e = d2x * d2x + d2y * d2y + d2z * d2z
+    f = d2x * rx + d2y * ry + d2z * rz
+    c = d1x * rx + d1y * ry + d1z * rz
+    b = d1x * d2x + d1y * d2y + d1z * d2z
+    denominator = a * e - b * b
+    s = min(max((b * f - c * e) / denominator, 0.0), 1.0) if denominator > 1e-18 else 0.0
+    r = (b * s + f) / e if e > 1e-18 else 0.0
+    if r < 0.0:
+        r, s = 0.0, min(max(-c / a, 0.0), 1.0) if a > 1e-18 else 0.0
+    elif r > 1.0:
+        r, s = 1.0, min(max((b - c) / a, 0.0), 1.0) if a > 1e-18 else 0.0
+    gx = rx + s * d1x - r * d2x
+    gy = ry + s * d1y - r * d2y
+    gz = rz + s * d1z - r * d2z
+    return s, r, math.sqrt(gx * gx + gy * gy + gz * gz)
+
+
+@njit(cache=True)
+def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, radii, thickness, reach, origin, dims,
+             cell, starts, entries, tracked):
+    """Keep the outer garment's points ``x`` (N, 3) (velocities ``v``, both changed in place; ``movable``
+    (N,) bool) ``thickness`` outside the inner garment's triangles (T, 3) of ``y`` (M, 3), unit ``normals``
+    (T, 3) and ``radii`` (T,) (farthest corner from the centroid, m); see the module docstring. ``x_prev``
+    (N, 3) the points at the frame's start (used when ``use_path``), ``edges`` (E, 2) the outer garment's
+    structural edges, ``tracked`` (N,) the inner triangle each point was over at the last call (-1: none),
+    updated. Returns how many pushes were made."""
+    moved = 0
+    n = x.shape[0]
+    stamp = np.full(triangles.shape[0], -1, dtype=np.int64)
+    found = np.empty(triangles.shape[0], dtype=np.int64)
+    query = 0
+    # 1. paths through a triangle from its outer side
+    if use_path:
+        for i in range(n):
+            if not movable[i]:
+                continue
+            px, py, pz = x_prev[i, 0], x_prev[i, 1], x_prev[i, 2]
+            dx, dy, dz = x[i, 0] - px, x[i, 1] - py, x[i, 2] - pz
+            best_s, best_t = 2.0, -1
+            query += 1
+            for m in range(_near_segment(px, py, pz, x[i, 0], x[i, 1], x[i, 2], origin, dims, cell, starts, entries,
+                                         stamp, query, found)):
+                t = found[m]
+                # from the outer side to the inner side only
+                if dx * normals[t, 0] + dy * normals[t, 1] + dz * normals[t, 2] >= 0.0:
+                    continue
+                a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+                if segment_misses_triangle_box(y, a, b, c, px, py, pz, x[i, 0], x[i, 1], x[i, 2]):
+                    continue
+                hit, s, _, _ = segment_crosses_triangle(px, py, pz, dx, dy, dz, y, a, b, c)
+                if hit and s < best_s:
+                    best_s, best_t = s, t
+            if best_t >= 0:
+                d = _height(x, i, y, triangles[best_t, 0], normals, best_t)  # < 0: how far through
+                _push(x, v, i, normals, best_t, thickness - d)
+                moved += 1
+    # 2. point-triangle proximity
+    for i in range(n):
+        if not movable[i]:
+            continue
+        t = tracked[i]
+        if t >= 0:
+            a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+            d = _height(x, i, y, a, normals, t)
+            # laterally within 1.5 times the triangle's radius of its centroid (it may have slid off its edge a little)
+            gx = x[i, 0] - (y[a, 0] + y[b, 0] + y[c, 0]) / 3.0
+            gy = x[i, 1] - (y[a, 1] + y[b, 1] + y[c, 1]) / 3.0
+            gz = x[i, 2] - (y[a, 2] + y[b, 2] + y[c, 2]) / 3.0
+            lateral2 = gx * gx + gy * gy + gz * gz - d * d
+            if -_TRACK_DEPTH < d < thickness - _SETTLED and lateral2 < 2.25 * radii[t] * radii[t]:
+                _push(x, v, i, normals, t, thickness - d)
+                moved += 1
+        tracked[i] = -1
+        px, py, pz = x[i, 0], x[i, 1], x[i, 2]
+        ci, cj, ck = (int(math.floor((px - origin[0]) / cell)), int(math.floor((py - origin[1]) / cell)),
+                      int(math.floor((pz - origin[2]) / cell)))
+        if ci < 0 or cj < 0 or ck < 0 or ci >= dims[0] or cj >= dims[1] or ck >= dims[2]:
+            continue
+        key = (ci * dims[1] + cj) * dims[2] + ck
+        best_d, best_t = reach, -1
+        for e in range(starts[key], starts[key + 1]):
+            t = entries[e]
+            a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+            d = _height(x, i, y, a, normals, t)
+            if abs(d) < abs(best_d) and _over(px, py, pz, y, a, b, c, normals[t, 0], normals[t, 1], normals[t, 2]):
+                best_d, best_t = d, t
+        if best_t >= 0 and best_d < thickness - _SETTLED:
+            _push(x, v, i, normals, best_t, thickness - best_d)
+            moved += 1
+        tracked[i] = best_t
+    # 3. edge-edge proximity and 4. edges through a triangle
+    for k in range(edges.shape[0]):
+        p0, p1 = edges[k, 0], edges[k, 1]
+        query += 1
+        for m in range(_near_segment(x[p0, 0], x[p0, 1], x[p0, 2], x[p1, 0], x[p1, 1], x[p1, 2], origin, dims, cell,
+                                     starts, entries, stamp, query, found)):
+            t = found[m]
+            if _apart(x, p0, p1, y, triangles, t, thickness):
+                continue  # most triangles of a cell are nowhere near the edge
+            moved += _edge_against_triangle(x, v, movable, p0, p1, y, triangles, normals, t, thickness, reach)
+    return moved
+
+
+@njit(cache=True, inline="always")
+def _apart(x, p0, p1, y, triangles, t, pad):
+    """True when the boxes of edge (p0, p1) of ``x`` and triangle t of ``y``, grown by ``pad`` m, are apart."""
+    a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+    for k in range(3):
+        if (max(y[a, k], y[b, k], y[c, k]) < min(x[p0, k], x[p1, k]) - pad
+                or min(y[a, k], y[b, k], y[c, k]) > max(x[p0, k], x[p1, k]) + pad):
+            return True
+    return False
+
+
+@njit(cache=True, inline="always")
+def _edge_against_triangle(x, v, movable, p0, p1, y, triangles, normals, t, thickness, reach):
+    """Passes 3 and 4 of ``separate`` for outer edge (p0, p1) and inner triangle t; returns the pushes made."""
+    a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+    moved = 0
+    for (q0, q1) in ((a, b), (b, c), (c, a)):
+        s, r, distance = _closest_between_segments(x, p0, p1, y, q0, q1)
+        if distance >= thickness or not (0.0 < s < 1.0 and 0.0 < r < 1.0):
+            continue  # an end or a corner is the points' pass's
+        d = ((1.0 - s) * _height(x, p0, y, a, normals, t) + s * _height(x, p1, y, a, normals, t))
+        if not -reach < d < thickness - _SETTLED:
+            continue
+        w0 = (1.0 - s) if movable[p0] else 0.0
+        w1 = s if movable[p1] else 0.0
+        if w0 + w1 <= 0.0:
+            continue
+        share = (thickness - d) / (w0 * (1.0 - s) + w1 * s)  # the closest point moves thickness - d
+        if w0 > 0.0:
+            _push(x, v, p0, normals, t, w0 * share)
+        if w1 > 0.0:
+            _push(x, v, p1, normals, t, w1 * share)
+        moved += 1
+    hit = segment_crosses_triangle(x[p0, 0], x[p0, 1], x[p0, 2], x[p1, 0] - x[p0, 0], x[p1, 1] - x[p0, 1],
+                                   x[p1, 2] - x[p0, 2], y, a, b, c)[0]
+    if not hit:
+        return moved
+    d0, d1 = _height(x, p0, y, a, normals, t), _height(x, p1, y, a, normals, t)
+    inner, d = (p0, d0) if d0 < d1 else (p1, d1)
+    # a shallow crossing only: an edge straddling a whole fold or tube has both ends outside it, and pushing
+    # one across would make it worse
+    if movable[inner] and d >= -_TRACK_DEPTH:
+        _push(x, v, inner, normals, t, thickness - d)
+        moved += 1
+    return moved
+
+
+@njit(cache=True)
+def count_edges_through(x, edges, y, triangles, origin, dims, cell, starts, entries):
+    """How many edges (E, 2) of points ``x`` (N, 3) cross a triangle (T, 3) of points ``y`` (M, 3), through
+    the grid of ``build_grid`` (a segment through a triangle's edge or vertex crosses, as for the bones)."""
+    count = 0
+    stamp = np.full(triangles.shape[0], -1, dtype=np.int64)
+    found = np.empty(triangles.shape[0], dtype=np.int64)
+    for k in range(edges.shape[0]):
+        p0, p1 = edges[k, 0], edges[k, 1]
+        px, py, pz = x[p0, 0], x[p0, 1], x[p0, 2]
+        qx, qy, qz = x[p1, 0], x[p1, 1], x[p1, 2]
+        for m in range(_near_segment(px, py, pz, qx, qy, qz, origin, dims, cell, starts, entries, stamp, k, found)):
+            a, b, c = triangles[found[m], 0], triangles[found[m], 1], triangles[found[m], 2]
+            if segment_misses_triangle_box(y, a, b, c, px, py, pz, qx, qy, qz):
+                continue
+            if segment_crosses_triangle(px, py, pz, qx - px, qy - py, qz - pz, y, a, b, c)[0]:
+                count += 1
+                break
+    return count
+
+
+class InnerSurface:
+    """An inner garment's triangles at its current positions, binned for ``separate`` and
+    ``count_edges_through``. ``positions`` (M, 3) m, ``triangles`` (T, 3); ``reach`` m (the grid's pad)."""
+
+    def __init__(self, positions: np.ndarray, triangles: np.ndarray, reach: float):
+        self.positions = np.ascontiguousarray(positions, dtype=np.float64)
+        self.triangles = np.ascontiguousarray(triangles, dtype=np.int64)
+        self.normals = np.empty((len(self.triangles), 3))
+        triangle_normals(self.positions, self.triangles, self.normals)
+        p = self.positions[self.triangles]
+        # (T,) m: each triangle's farthest corner from its centroid
+        self.radii = np.ascontiguousarray(np.linalg.norm(p - p.mean(axis=1, keepdims=True), axis=2).max(axis=1))
+        # a triangle sits in every cell its box grown by the reach touches, so a point's own cell holds what is
+        # near it whatever the cell's size: a typical triangle's, so a cell holds few
+        self.cell = 2.0 * float(np.median(self.radii)) + reach
+        self.reach = reach
+        self.origin, self.dims, self.starts, self.entries = build_grid(self.positions, self.triangles, reach,
+                                                                       self.cell)
+
+    def separate(self, x: np.ndarray, v: np.ndarray, movable: np.ndarray, edges: np.ndarray, thickness: float,
+                 tracked: np.ndarray, x_prev: np.ndarray | None = None) -> int:
+        """``x``, ``v`` (N, 3) float64 changed in place; ``movable`` (N,) bool; ``edges`` (E, 2) the outer
+        garment's; ``tracked`` (N,) int64, updated; ``x_prev`` (N, 3) the frame's start (None: no path
+        pass). Returns how many pushes were made."""
+        edges = np.ascontiguousarray(edges, dtype=np.int64)
+        pushes = 0
+        for sweep in range(SWEEPS):  # a push out of one triangle can put a point into its neighbour in a crease
+            moved = int(separate(x, v, movable, x if x_prev is None else x_prev, sweep == 0 and x_prev is not None,
+                                 edges, self.positions, self.triangles, self.normals, self.radii, float(thickness),
+                                 self.reach,
+                                 self.origin, self.dims, self.cell, self.starts, self.entries, tracked))
+            pushes += moved
+            if moved == 0:
+                break
+        return pushes
+
+    def edges_through(self, x: np.ndarray, edges: np.ndarray) -> int:
+        """How many edges (E, 2) of points ``x`` (N, 3) cross one of these triangles."""
+        return int(count_edges_through(np.ascontiguousarray(x, dtype=np.float64),
+                                       np.ascontiguousarray(edges, dtype=np.int64), self.positions, self.triangles,
+                                       self.origin, self.dims, self.cell, self.starts, self.entries))

@@ -1,0 +1,165 @@
+"""Issue 13 item 5: outfits of several garments, the inner garment's surface a collider for the outer one
+(``cloth.layers``), the layer order, and the layers' bone-through-cloth check on real clips."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from garment_sim_ros.cloth.layers import InnerSurface, count_edges_through
+from garment_sim_ros.quality import segments_through_triangles
+
+DATA = Path(__file__).parent / "data"
+THICKNESS = 0.004
+
+
+def _sheet(n=6, size=0.3, z=None):
+    """A square sheet in the z = 0 plane (or heights ``z(x, y)``), counter-clockwise seen from +z: outward is +z."""
+    u = np.linspace(-size / 2, size / 2, n)
+    xs, ys = np.meshgrid(u, u, indexing="ij")
+    y = np.column_stack([xs.ravel(), ys.ravel(), np.zeros(n * n) if z is None else z(xs.ravel(), ys.ravel())])
+    triangles = []
+    for i in range(n - 1):
+        for j in range(n - 1):
+            a, b, c, d = i * n + j, (i + 1) * n + j, (i + 1) * n + j + 1, i * n + j + 1
+            triangles += [(a, b, c), (a, c, d)]
+    return y, np.array(triangles)
+
+
+def _separate(surface, x, v=None, movable=None, edges=np.zeros((0, 2), np.int64), x_prev=None):
+    v = np.zeros_like(x) if v is None else v
+    movable = np.ones(len(x), bool) if movable is None else movable
+    tracked = np.full(len(x), -1, np.int64)
+    surface.separate(x, v, movable, edges, THICKNESS, tracked, x_prev)
+    return x, v
+
+
+def test_points_over_the_inner_surface_end_its_thickness_outside_it():
+    surface = InnerSurface(*_sheet(), reach=0.05)
+    x = np.array([[0.01, 0.02, -0.01],    # 1 cm under, over the sheet: out to the thickness
+                  [-0.05, 0.0, 0.002],    # closer than the thickness: out to it
+                  [0.0, 0.05, 0.03],      # 3 cm out: left alone
+                  [0.4, 0.0, -0.01],      # beside the sheet, over no triangle: left alone
+                  [0.03, 0.03, -0.01]])   # pinned (an attached point): left alone
+    v = np.array([[0.5, 0.0, -1.0], [0.0, 0.0, 0.3], [0.0] * 3, [0.0] * 3, [0.0] * 3])
+    movable = np.array([True, True, True, True, False])
+    before = x.copy()
+    _separate(surface, x, v, movable)
+    assert x[:2, 2] == pytest.approx([THICKNESS, THICKNESS])
+    assert np.array_equal(x[:2, :2], before[:2, :2])  # along the normal only
+    assert np.array_equal(x[2:], before[2:])
+    assert v[0] == pytest.approx([0.5, 0.0, 0.0]) and v[1] == pytest.approx([0.0, 0.0, 0.3])  # into it: gone
+
+
+def test_a_path_through_the_inner_surface_is_put_back_on_its_outer_side():
+    surface = InnerSurface(*_sheet(), reach=0.05)
+    x_prev = np.array([[0.02, 0.01, 0.05], [0.02, -0.06, -0.08]])
+    x = np.array([[0.03, 0.01, -0.12], [0.02, -0.06, 0.05]])  # 12 cm through, beyond the reach; and out from under
+    _separate(surface, x, x_prev=x_prev)
+    assert x[0, 2] == pytest.approx(THICKNESS) and x[1, 2] == pytest.approx(0.05)  # out from under: not pushed
+
+
+def test_an_edge_over_a_ridge_is_kept_its_thickness_off_it():
+    """A roof along y (the ridge at x = 0, z = 0): an outer edge across it 1 mm above the ridge has its ends
+    over no triangle; the edge-edge pass lifts it."""
+    surface = InnerSurface(*_sheet(n=3, size=0.2, z=lambda x, y: -np.abs(x)), reach=0.05)
+    x = np.array([[-0.2, 0.013, 0.001], [0.2, 0.013, 0.001]])  # level, 1 mm over the ridge, ends beyond the eaves
+    assert surface.positions[:, 2].max() == 0.0
+    _separate(surface, x, edges=np.array([[0, 1]]))
+    assert x[:, 2].min() > 0.001  # lifted
+    mid = x.mean(axis=0)
+    assert mid[2] >= 0.7 * THICKNESS  # the closest point now about the thickness off the ridge (45 degree normals)
+
+
+def test_an_edge_through_the_inner_surface_is_counted_and_pushed_out():
+    surface = InnerSurface(*_sheet(), reach=0.05)
+    x = np.array([[0.01, 0.01, 0.03], [0.05, 0.02, -0.03]])
+    edges = np.array([[0, 1]])
+    assert surface.edges_through(x, edges) == 1
+    _separate(surface, x, edges=edges)
+    assert surface.edges_through(x, edges) == 0 and x[1, 2] >= THICKNESS - 1e-12
+
+
+def test_the_grid_counts_the_crossings_the_brute_force_check_counts():
+    rng = np.random.default_rng(3)
+    y, triangles = _sheet(n=12, size=0.6, z=lambda x, y: 0.05 * np.sin(8 * x) * np.cos(5 * y))
+    surface = InnerSurface(y, triangles, reach=0.02)
+    x = rng.uniform([-0.35, -0.35, -0.12], [0.35, 0.35, 0.12], size=(600, 3))
+    edges = np.column_stack([np.arange(0, 600, 2), np.arange(1, 600, 2)])
+    crossed = np.zeros(len(edges), np.bool_)
+    brute = segments_through_triangles(np.ascontiguousarray(x[edges[:, 0]]), np.ascontiguousarray(x[edges[:, 1]]),
+                                       y, triangles, crossed)
+    assert brute > 20
+    assert count_edges_through(x, edges, surface.positions, surface.triangles, surface.origin, surface.dims,
+                               surface.cell, surface.starts, surface.entries) == brute
+
+
+# ----------------------------------------------------------------------------- the outfit
+
+
+def test_layer_order_is_the_specs_layer_then_the_outfit_order():
+    from garment_sim_ros.body.sources import procedural_source
+    from garment_sim_ros.dressing import make_character
+    from garment_sim_ros.params import preset
+
+    source = procedural_source("walk")
+    character = make_character(source.rest_pose, source.joint_map, ["long_skirt", "pants", "short_skirt"],
+                               preset("si"), 0.5)
+    assert character.layer_order == [1, 0, 2]  # pants (layer 0), then the skirts (1) as named
+    assert character._inner == [[1], [], [1, 0]]
+
+
+def test_evaluate_takes_outfits_joined_by_plus():
+    from types import SimpleNamespace
+
+    from garment_sim_ros.cloth.spec import SpecError
+    from garment_sim_ros.commands.evaluate import plan
+
+    def garments(text):
+        args = SimpleNamespace(clips=[str(DATA / "xia_old_13_000.bvh")], garments=text, speeds="1", fps="60",
+                               duration=None, jobs=1, preset="si", resolution=1.0, decimate=None)
+        return [run.garment for run in plan(args)]
+
+    assert garments("pants + long_skirt, one_piece+pants,cape") == ["pants+long_skirt", "one_piece+pants", "cape"]
+    with pytest.raises(SpecError, match="twice"):
+        garments("pants+pants")
+    with pytest.raises(SpecError, match="trousers"):
+        garments("pants+trousers")
+
+
+# Measured (README, "Outfits"): frames with an outer edge through an inner triangle in the 1 s runs at 1x,
+# 60 fps (without the layers: 60, 60 and 28 of 60). The bound is the measurement, not zero: a long skirt's
+# 10-18 cm edges can straddle a trouser leg, and a point the layers would push into a volume stays put.
+OUTFITS = [("xia_strutting_01_000", "pants+long_skirt", 3),
+           ("xia_strutting_01_000", "pants+one_piece", 1),
+           ("xia_strutting_01_000", "short_skirt+cape", 0)]
+
+
+@pytest.mark.parametrize("clip, outfit, crossing_frames", OUTFITS)
+def test_an_outer_garment_stays_outside_the_inner_one_on_a_real_clip(clip, outfit, crossing_frames):
+    from garment_sim_ros.commands.evaluate import Run, evaluate_run
+
+    row = evaluate_run(Run(str(DATA / f"{clip}.bvh"), outfit, 1.0, 60.0, 1.0))
+    assert row["frames"] == 60 and [layer["garment"] for layer in row["layers"]] == outfit.split("+")
+    assert row["layer_crossing_frames"] <= crossing_frames
+    assert row["targets"]["f"] == (row["layer_crossing_frames"] == 0)
+    # both layers meet the body targets of the real-motion issue (stretch (d) is not met yet: README)
+    failed = {k: ok for k, ok in row["targets"].items() if k not in ("d", "f") and ok is False}
+    assert failed == {}, row["layers"]
+
+
+def test_evaluate_prints_an_outfit_with_a_line_per_garment():
+    result = subprocess.run([sys.executable, "-m", "garment_sim_ros.cli", "evaluate", str(DATA / "xia_old_13_000.bvh"),
+                             "--garments", "pants+short_skirt", "--duration", "0.1", "--json"],
+                            capture_output=True, text=True, timeout=600)
+    assert result.returncode in (0, 1), result.stderr[-2000:]
+    row, summary = (json.loads(line) for line in result.stdout.splitlines())
+    assert row["garment"] == "pants+short_skirt" and [g["garment"] for g in row["layers"]] == ["pants", "short_skirt"]
+    assert row["limb_tubes"] == 2 and row["layers"][1]["limb_tubes"] == 0
+    assert row["bones_frames"] >= max(g["bones_frames"] for g in row["layers"])
+    assert summary["summary"]["targets"]["f"]["asked"] == 1
