@@ -31,13 +31,12 @@ cached contacts handled after every sweep, so that the contacts are constraints 
 projection: the correction alone shortens a spring wrapped round a limb straight through it, and
 the handling after it undid its work (issue 11, xia_angry's long skirt, 8 sweeps, the worst substep's
 p99 stretch 1.06 after them and 1.23 after the handling; the worst frame's 1.22, 1.10 with the
-contacts handled between the sweeps). It stops
-once no spring is longer than ``1 + limit_ratio + strain_limit_tolerance`` times its rest length. The
-displacement counts as velocity (``v += dx / h``, as the rest of the step's corrections do); the
-collision handling (points, then edges) runs once more, and a point it then leaves inside a volume
-(squeezed where two volumes meet) goes back to where it was; if
-a spring then ends longer than ``STRAIN_LIMIT_UNDONE`` and than the longest before, the substep
-keeps the state from before the limiting.
+contacts handled between the sweeps). It stops once no spring is longer than
+``1 + limit_ratio + strain_limit_tolerance`` times its rest length. The displacement counts as
+velocity (``v += dx / h``, as the rest of the step's corrections do); the collision handling (points,
+then edges) runs once more, and a point it then leaves inside a volume (squeezed where two volumes
+meet) goes back to where it was; if a spring then ends longer than ``STRAIN_LIMIT_UNDONE`` and than
+the longest before, the substep keeps the state from before the limiting.
 """
 
 from __future__ import annotations
