@@ -83,9 +83,12 @@ PARAMETERS: tuple[Param, ...] = (
           "Provot length-correction iterations per substep (contacts are handled after the first)"),
     Param("limit_ratio", 0.01, "1", 0.0, 1.0,
           "springs longer than (1 + limit_ratio) x rest length are shortened"),
-    Param("strain_limit_iterations", 8, "1", 0, 200,
-          "length-correction iterations after collision handling (the last projection of a substep); points in "
-          "contact move by contact_mobility of their share, points it would leave deeper in a volume stay; 0: off"),
+    Param("strain_limit_iterations", 12, "1", 0, 200,
+          "length-correction iterations after collision handling (the last projection of a substep), each "
+          "followed by the in-contact points' collision handling; points in contact move by contact_mobility of "
+          "their share, points it would leave deeper in a volume stay; 0: off"),
+    Param("strain_limit_tolerance", 0.02, "1", 0.0, 1.0,
+          "the strain limiting stops early once no spring is longer than (1 + limit_ratio + this) x rest length"),
     Param("contact_mobility", 0.5, "1", 0.0, 1.0,
           "share of the strain limiting's correction a point in contact takes (0: contacts hold, 1: as free points)"),
     Param("tethers", 1, "1", 0, 1,
@@ -153,6 +156,7 @@ class SolverParams:
     correction_iterations: int
     limit_ratio: float
     strain_limit_iterations: int
+    strain_limit_tolerance: float
     contact_mobility: float
     tethers: int
     tether_slack: float

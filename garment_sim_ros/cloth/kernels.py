@@ -80,12 +80,15 @@ def integrate(x, v, forces, inv_mass, h, x_start):
 @njit(cache=True)
 def length_correction(x, inv_mass, springs, rest, count, limit_ratio):
     """One Provot iteration over the first ``count`` springs: shorten every spring longer than
-    ``(1 + limit_ratio) * rest`` back to that length, moving both ends by their inverse masses."""
+    ``(1 + limit_ratio) * rest`` back to that length, moving both ends by their inverse masses.
+    Returns the largest length / rest length it met, before shortening (0 for no springs)."""
+    worst = 0.0
     for s in range(count):
         a = springs[s, 0]
         b = springs[s, 1]
         dx, dy, dz, length = _spring_vector(x, a, b)
         limit = (1.0 + limit_ratio) * rest[s]
+        worst = max(worst, length / rest[s])
         if length <= limit:
             continue
         wa = inv_mass[a]
@@ -100,6 +103,7 @@ def length_correction(x, inv_mass, springs, rest, count, limit_ratio):
         x[b, 0] -= wb * scale * dx
         x[b, 1] -= wb * scale * dy
         x[b, 2] -= wb * scale * dz
+    return worst
 
 
 @njit(cache=True)
