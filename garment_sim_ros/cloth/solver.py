@@ -370,7 +370,7 @@ class GarmentSolver:
                 break
             # the contacts as constraints of the same projection: what the correction pulled into a volume goes
             # back out before the next sweep (its velocity response is not wanted: ``v += dx / h`` below)
-            collider.handle_contacts(self._x_start, x, self._v_scratch, const.inv_mass, h)
+            collider.handle_contacts(self._x_start, x, self._v_scratch, const.inv_mass, h, self.state.contacts)
         if constraint is not None:
             limit_distance(x, *constraint, params.max_distance, const.inv_mass)
         v += (x - self._x_kept) / h
