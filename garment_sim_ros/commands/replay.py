@@ -91,7 +91,8 @@ class Replay:
                                   v["garments"], v["resolution"], frame_prefix=v["frame_prefix"],
                                   root_frame=v["root_frame"], joint_map_file=v["joint_map_file"],
                                   body_file=v["body_file"], logger=logging.getLogger("garment_sim.replay"),
-                                  catch_up_wall_s=math.inf, on_event=self._on_event)
+                                  catch_up_wall_s=math.inf, on_event=self._on_event,
+                                  quality_rate_hz=v["quality_rate_hz"])
         self.decoder = TFDecoder(v["frame_prefix"])
         self.markers = None
         if markers_bag is not None:  # first: it refuses an existing folder before anything is written
@@ -158,7 +159,8 @@ class Replay:
                 if result is None:
                     continue
                 simulated += 1
-                max_penetration = max(max_penetration, result.penetration_m)
+                if result.measured:  # the node's quality_rate_hz
+                    max_penetration = max(max_penetration, result.penetration_m)
                 payload = frame_payload(self.loop.character, result.pose)
                 stamp = seconds_to_stamp(result.time_s)
                 publish_tic = time.perf_counter()
