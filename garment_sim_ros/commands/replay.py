@@ -86,13 +86,13 @@ class Replay:
         self.values = v = values
         self.buffer = PoseBuffer(v["fixed_frame"], max_age_s=v["max_skeleton_age"],
                                  max_extrapolation_s=v["max_extrapolation"])
-        # catch_up_wall_s: no wall-clock limit, the same bag must give the same garments
+        # catch_up_wall_s: no wall-clock limit, the same bag must give the same garments; the quality
+        # measured on every frame (the loop's default): offline, the node's quality_rate_hz does not apply
         self.loop = CharacterLoop(self.buffer, solver_params(v),
                                   v["garments"], v["resolution"], frame_prefix=v["frame_prefix"],
                                   root_frame=v["root_frame"], joint_map_file=v["joint_map_file"],
                                   body_file=v["body_file"], logger=logging.getLogger("garment_sim.replay"),
-                                  catch_up_wall_s=math.inf, on_event=self._on_event,
-                                  quality_rate_hz=v["quality_rate_hz"])
+                                  catch_up_wall_s=math.inf, on_event=self._on_event)
         self.decoder = TFDecoder(v["frame_prefix"])
         self.markers = None
         if markers_bag is not None:  # first: it refuses an existing folder before anything is written
@@ -159,8 +159,7 @@ class Replay:
                 if result is None:
                     continue
                 simulated += 1
-                if result.measured:  # the node's quality_rate_hz
-                    max_penetration = max(max_penetration, result.penetration_m)
+                max_penetration = max(max_penetration, result.penetration_m)
                 payload = frame_payload(self.loop.character, result.pose)
                 stamp = seconds_to_stamp(result.time_s)
                 publish_tic = time.perf_counter()
