@@ -45,11 +45,12 @@ module decides what happens:
    ``clock_not_started``). Several skeletons under the fixed frame that ``frame_prefix`` does not
    tell apart: the largest is dressed, and a warning names them all and the one picked.
 
-Quality meters (``quality``: depth, limb bones through the cloth, trouser legs off, stretch p99) cost about
-as much as a one-piece's solver stages; they run on the first frame at least ``1 / quality_rate_hz`` of
-body time after the last measured one and on the first frame after dressing (``FrameResult.measured``;
-the default, infinite, measures every frame; the node passes its ``quality_rate_hz`` parameter). A
-frame made of catch-up pieces measures its last piece only (the one whose reports it returns).
+Quality meters (``quality``: depth, limb bones through the cloth, trouser legs off, stretch p99) are the
+largest cost of a frame outside the solver; they run on the first frame at least ``1 / quality_rate_hz``
+of body time after the last measured one, on the first frame after dressing and on a frame the solver's
+guard fired in (``FrameResult.measured``; the default, infinite, measures every frame; the node passes its
+``quality_rate_hz`` parameter). A frame made of catch-up pieces measures its last piece only (the one
+whose reports it returns).
 
 Changing garments or resolution (``set_garments``) re-dresses at the next frame, and so does a
 saved spec or mesh file of a worn garment (``check_specs``, from the node's file-watch timer: the
@@ -263,6 +264,9 @@ class CharacterLoop:
                                      "sample); dressing again at the new pose")
             measured = last and self._quality_due(t)
             reports = self.character.step(pose, motion, t, measure=measured)
+            if last and not measured and any(r.recovery for r in reports):  # a step gone bad: how it ended up
+                self.character.measure(reports, pose)
+                measured = True
             self.last_time = t
             if last:
                 break
