@@ -291,8 +291,9 @@ class DressedCharacter:
             solver.state.time = time_s
             solver.state.lag = 0.0
 
-    def step(self, pose: SkeletonPose, motion: RootMotion, time_s: float) -> list[FrameReport]:
-        """Advance every garment from the previous pose to ``pose`` at ``time_s``."""
+    def step(self, pose: SkeletonPose, motion: RootMotion, time_s: float, measure: bool = True) -> list[FrameReport]:
+        """Advance every garment from the previous pose to ``pose`` at ``time_s``; ``measure``: fill the
+        reports' quality figures (``measure``; the node measures at its ``quality_rate_hz``)."""
         if self._previous is None:
             raise RuntimeError("call dress() with the first pose before step()")
         previous_pose, start_motion, previous_time = self._previous
@@ -313,7 +314,8 @@ class DressedCharacter:
         if refitted:
             self._put_on(refitted, pose, time_s, settle_s=0.25, frame_s=1.0 / 60.0, hold_frames=15)
         self._previous = (pose, motion, time_s)
-        self.measure(reports, pose)
+        if measure:
+            self.measure(reports, pose)
         return reports
 
     @cached_property

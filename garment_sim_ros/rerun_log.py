@@ -11,10 +11,12 @@ one process (two characters, a test beside a node) write separate recordings. En
 - ``world/body/volumes``: ``Ellipsoids3D`` (see ``volume_ellipsoids`` for the shapes shown);
 - ``world/body/skeleton``: ``LineStrips3D``, one two-point strip per bone;
 - ``frame/<figure>``: ``Scalars``: ``fps`` (simulated frames per wall second), ``lag_ms`` (the
-  garments behind the skeleton), ``substeps``, ``penetration_mm`` (deepest garment point in a volume);
+  garments behind the skeleton), ``substeps``, ``penetration_mm`` (deepest garment point in a volume;
+  on the frames the quality meters measured, ``FrameResult.measured``: the node's ``quality_rate_hz``);
 - ``timings/<stage>``: ``Scalars``, milliseconds;
 - ``quality/<garment>/<figure>``: ``Scalars``, how well each garment stays on (``quality.report_scalars``:
-  ``depth_mm``, ``bones_through``, ``legs_off``, stretch p99 and max, ``guard``);
+  ``depth_mm``, ``bones_through``, ``legs_off``, stretch p99 and max on the measured frames, ``guard``
+  every frame);
 - ``input/<figure>``: ``Scalars``, the /tf input (``lag_ms``, ``backlog``);
 - ``events``: ``TextLog``: dressing, teleports, re-dresses, holds, guard recoveries, parameter changes;
 
@@ -236,7 +238,8 @@ class RerunLogger:
             self._frame_walls.popleft()
         span = now - self._frame_walls[0]
         reports = result.reports
-        frame = {"penetration_mm": 1e3 * result.penetration_m}
+        # the quality meters' figures only on the frames they measured (the node's quality_rate_hz)
+        frame = {"penetration_mm": 1e3 * result.penetration_m} if result.measured else {}
         if span > 0.0:
             frame["fps"] = (len(self._frame_walls) - 1) / span
         timings, quality = {}, {}
@@ -246,7 +249,8 @@ class RerunLogger:
             timings = {"integration": sum(r.integration_s for r in reports),
                        "correction": sum(r.correction_s for r in reports),
                        "collision": sum(r.collision_s for r in reports)}
-            quality = {solver.model.name: report_scalars(report)
+            quality = {solver.model.name: report_scalars(report) if result.measured
+                       else {"guard": float(bool(report.recovery))}  # the solver's own, every frame
                        for solver, report in zip(character.solvers, reports)}
         timings["publish"] = publish_s
         time_s = result.time_s

@@ -78,8 +78,11 @@ def test_node_dresses_the_walking_character_and_publishes_its_garments(graph, tm
     for key in ("fps", "substeps", "lag_s", "integration_ms", "correction_ms", "collision_ms", "publish_ms",
                 "max_penetration_mm", "skeleton_age_s", "mass_points", "bones_through", "bones_through_frames",
                 "legs_off", "structural_stretch_p99", "structural_stretch_max", "shear_stretch_p99",
-                "shear_stretch_max"):
+                "shear_stretch_max", "quality_rate_hz", "quality_frames"):
         assert key in values, key
+    # the quality figures come from the frames measured at quality_rate_hz (10 Hz: 1 in 6 at 60 fps)
+    assert float(values["quality_rate_hz"]) == 10.0
+    assert 0 < float(values["quality_frames"]) < float(values["frames"])
     assert float(values["structural_stretch_max"]) >= float(values["structural_stretch_p99"]) >= 0.9
     assert float(values["max_penetration_mm"]) < 3.0
     assert float(values["fps"]) > 0.0 and float(values["substeps"]) >= 1.0

@@ -8,6 +8,7 @@ import pytest
 
 from garment_sim_ros.body.pose_buffer import PoseBuffer, SampleStatus
 from garment_sim_ros.body.procedural import ProceduralCharacter, fast_motion, walk
+from garment_sim_ros.body.sample_series import SampleSeries
 from garment_sim_ros.transforms import IDENTITY_QUAT, quat_from_axis_angle, yaw_quat
 
 Z = np.array([0.0, 0.0, 1.0])
@@ -347,3 +348,21 @@ def test_a_lone_root_outlier_is_dropped_and_a_confirmed_jump_forgets_the_history
 
     add(1.63, -3.99 + 1.3 * 0.5)  # a publisher stalled for 0.5 s while the body walked on: no jump
     assert buffer.sample_count("pelvis") == 3 and buffer.adjusted["jump_confirmed"] == 1
+
+
+def test_bracketing_one_time_gives_what_the_vector_path_gives():
+    """The scalar path (one time, every frame's sample) and the vector one (root kinematics' window) agree
+    exactly: before the oldest, between stamps, at a stamp, extrapolating and past the bound, one sample."""
+    rng = np.random.default_rng(3)
+    for count in (1, 2, 5, 40):
+        series = SampleSeries(64)
+        for stamp in np.cumsum(rng.uniform(0.001, 0.02, count)):
+            rotation = rng.normal(size=4)
+            series.insert(float(stamp), rng.normal(size=3), rotation / np.linalg.norm(rotation))
+        stamps = series.stamps
+        for time in (stamps[0] - 0.1, stamps[0], stamps[-1], stamps[-1] + 0.05, stamps[-1] + 0.5,
+                     *rng.uniform(stamps[0], stamps[-1], 5)):
+            one = series.bracket(np.array([time]), 0.1)
+            vector = series.bracket(np.array([time, time]), 0.1)
+            for a, b in zip(one, vector):
+                np.testing.assert_array_equal(a[0], b[0])

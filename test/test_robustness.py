@@ -35,6 +35,7 @@ from garment_sim_ros.cloth.solver import GarmentSolver
 from garment_sim_ros.params import DEFAULT_PARAMS
 from garment_sim_ros.ros.diagnostics import level_and_message
 from garment_sim_ros.runtime.character_loop import CLOCK_JUMP_BACK_S, CharacterLoop, Status
+from garment_sim_ros.runtime.frame_stats import FrameStats
 from garment_sim_ros.runtime.skeleton_setup import BONE_CHECK_S
 from garment_sim_ros.runtime.tf_input import seconds_to_stamp
 
@@ -242,6 +243,46 @@ def step_until_running(loop: CharacterLoop, t: float, frames: int, **feed_option
         if loop.status == Status.RUNNING:
             break
     return t
+
+
+def test_the_quality_meters_run_at_quality_rate_hz_and_the_statistics_keep_only_the_measured_frames(monkeypatch):
+    """At 60 fps and quality_rate_hz 10 every 6th frame is measured: its figures are what measuring the
+    garments then gives; the others say they were not measured (penetration nan) and the window's
+    figures leave them out. A frame the solver's guard fired in is measured whenever it comes. The
+    default (the loop's, inf) measures every frame."""
+    loop, t = running_loop()
+    feed(loop.buffer, t)
+    assert loop.frame(t).measured  # the default: every frame
+    t += FRAME
+    loop.quality_rate_hz = 10.0
+    stats, measured = FrameStats(), []
+    for _ in range(24):
+        feed(loop.buffer, t)
+        result = loop.frame(t)
+        stats.record_frame(result.reports, result.frame_s, result.penetration_m, result.measured)
+        measured.append(result.measured)
+        if result.measured:
+            assert result.penetration_m == loop.character.max_penetration()
+            again = [dataclasses.replace(r, bones_through=-1, legs_off=-1, structural_stretch_p99=-1.0)
+                     for r in result.reports]
+            loop.character.measure(again, result.pose)
+            assert again == result.reports
+        else:
+            assert math.isnan(result.penetration_m)
+            assert all(r.structural_stretch_p99 == 0.0 for r in result.reports)  # never measured
+        t += FRAME
+    assert measured == ([False] * 5 + [True]) * 4
+    window = stats.window()
+    assert window["quality_frames"] == 4 and window["frames"] == 24
+    assert math.isfinite(window["max_penetration_mm"]) and window["structural_stretch_p99"] > 1.0 - 1e-9
+
+    advance = GarmentSolver.advance  # a NaN root acceleration: the guard restores the last good state
+    monkeypatch.setattr(GarmentSolver, "advance", lambda solver, frame: advance(
+        solver, dataclasses.replace(frame, root_acceleration=np.array([math.nan, 0.0, 0.0]))))
+    feed(loop.buffer, t)
+    result = loop.frame(t)  # the first of the next six: not due
+    assert result.reports[0].recovery == "restored" and result.measured
+    assert result.penetration_m == loop.character.max_penetration()
 
 
 def test_the_frame_touches_no_file_and_a_saved_spec_dresses_again_at_the_next_check(tmp_path, monkeypatch):

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter
+from dataclasses import dataclass
 from numbers import Real
 from typing import Mapping, Sequence
 
@@ -43,12 +44,27 @@ import numpy as np
 
 from ..transforms import IDENTITY_QUAT, compose, inverse, quat_slerp
 from .jumps import JumpHold, is_jump
-from .root import fit_root_kinematics, root_frame
+from .root import fit_root_kinematics, headings, root_frame
 from .sample_series import SampleSeries
 from .samples import PoseSample, RootMotion, SampleStatus
 from .skeleton import Skeleton, SkeletonPose, compose_tree
 
 _UNIT_SILENT = 1e-3  # |q| within this of 1 is rounding: normalised without being counted
+_MAX_PLANS = 64  # sets of frames whose composition plan is kept (the skeleton, its root frames, ...)
+
+
+@dataclass(frozen=True)
+class _ComposePlan:
+    """Which rows ``PoseBuffer._compose`` fills for a set of frames (valid while the tree is unchanged)."""
+
+    used: list[str]  # the dynamic frames needed
+    used_rows: list[int]  # ...their rows
+    static_rows: list[tuple[str, int]]  # the static frames needed and their rows
+    parent_row: np.ndarray  # (R,) int64: each row's parent row, -1 for a tree root
+    roots: np.ndarray  # (R,) bool: the tree roots (their own origin)
+    found: list[int]  # the rows of the frames asked for that reach the fixed frame, in their order
+    missing: list[str]  # the frames asked for that do not
+    fixed_row: int  # the fixed frame's row when it is not the tree's root, else -1
 
 
 def _as_vector(value, size: int) -> list[float] | None:
@@ -107,6 +123,8 @@ class PoseBuffer:
         self._parent: dict[str, str] = {}
         self._static: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._dynamic: dict[str, SampleSeries] = {}
+        self._tree_version = 0  # bumped whenever a frame, a parent link or a frame's kind (static, dynamic) changes
+        self._plans: dict[tuple, _ComposePlan] = {}  # _compose's plan per (frames, fixed frame) of this version
 
     # ------------------------------------------------------------------ input
 
@@ -153,12 +171,15 @@ class PoseBuffer:
         elif known and static != (child in self._static):
             self.adjusted["static_dynamic_switch"] += 1
             self._forget(child)
+        if self._parent.get(child) != parent or static != (child in self._static):
+            self._tree_changed()
         self._parent[child] = parent
         if static:
             self._static[child] = (np.array(position), np.array(rotation) / norm)
             return None
         series = self._dynamic.get(child)
         if series is None:
+            self._tree_changed()
             series = self._dynamic[child] = SampleSeries(self.max_count)
         elif stamp_s < series.stamps[-1] - self.max_duration_s:
             return self._reject("too_old", parent, child, f"stamp {stamp_s} is more than max_duration_s "
@@ -242,7 +263,12 @@ class PoseBuffer:
                 return chain
         return []
 
+    def _tree_changed(self) -> None:
+        self._tree_version += 1
+        self._plans.clear()
+
     def _forget(self, child: str) -> None:
+        self._tree_changed()
         self._jumps.forget(child)
         self._static.pop(child, None)
         self._dynamic.pop(child, None)
@@ -310,7 +336,40 @@ class PoseBuffer:
         (F, K, 4), the frames not connected to the fixed frame, and the dynamic frames used.
 
         Vectorised: one interpolation over every dynamic frame needed, then one composition per
-        tree depth (each frame's pose relative to its tree's root), then into the fixed frame."""
+        tree depth (each frame's pose relative to its tree's root), then into the fixed frame. The
+        tree walk (which frames, in which order) is planned once per set of frames until the tree changes."""
+        key = (tuple(frames), self.fixed_frame)
+        plan = self._plans.get(key)
+        if plan is None:
+            if len(self._plans) >= _MAX_PLANS:  # callers asking for ever new sets of frames: start again
+                self._plans.clear()
+            plan = self._plans[key] = self._plan(frames)
+        count = len(times)
+        size = len(plan.parent_row)
+        local_p = np.zeros((size, count, 3))
+        local_q = np.tile(IDENTITY_QUAT, (size, count, 1))
+        for name, i in plan.static_rows:
+            local_p[i], local_q[i] = self._static[name]
+        if plan.used:
+            pairs = [self._dynamic[name].bracket(times, self.max_extrapolation_s) for name in plan.used]
+            p0, p1, q0, q1, weight = (np.stack(parts) for parts in zip(*pairs))
+            local_p[plan.used_rows] = p0 + weight[..., None] * (p1 - p0)
+            local_q[plan.used_rows] = quat_slerp(q0, q1, weight)
+        local_p[plan.roots], local_q[plan.roots] = 0.0, IDENTITY_QUAT  # a tree root is its own origin
+        # time-major copies: each time's rows contiguous for compose_tree (rows are parents first)
+        local_p, local_q = np.ascontiguousarray(local_p.swapaxes(0, 1)), np.ascontiguousarray(local_q.swapaxes(0, 1))
+        world_p, world_q = np.empty_like(local_p), np.empty_like(local_q)
+        for k in range(count):
+            compose_tree(plan.parent_row, local_p[k], local_q[k], world_p[k], world_q[k])
+        world_p, world_q = world_p.swapaxes(0, 1), world_q.swapaxes(0, 1)
+        positions, rotations = world_p[plan.found], world_q[plan.found]
+        if plan.fixed_row >= 0:
+            positions, rotations = compose(*inverse(world_p[plan.fixed_row], world_q[plan.fixed_row]),
+                                           positions, rotations)
+        return positions, rotations, list(plan.missing), set(plan.used)
+
+    def _plan(self, frames: Sequence[str]) -> "_ComposePlan":
+        """``_compose``'s tree walk for ``frames``: every frame needed, parents first, and what each row is."""
         known = set(self._parent) | set(self._parent.values())
         fixed_chain = self._chain(self.fixed_frame)
         row: dict[str, int] = {}  # every frame needed, parents before children
@@ -326,37 +385,16 @@ class PoseBuffer:
             for name in reversed(fixed_chain):
                 row.setdefault(name, len(row))
         names = list(row)
-        count = len(times)
-        local_p = np.zeros((len(names), count, 3))
-        local_q = np.tile(IDENTITY_QUAT, (len(names), count, 1))
         used = [name for name in names if name in self._dynamic]
-        for name in names:
-            if name in self._static:
-                local_p[row[name]], local_q[row[name]] = self._static[name]
-        if used:
-            pairs = [self._dynamic[name].bracket(times, self.max_extrapolation_s) for name in used]
-            p0, p1, q0, q1, weight = (np.stack(parts) for parts in zip(*pairs))
-            rows = [row[name] for name in used]
-            local_p[rows] = p0 + weight[..., None] * (p1 - p0)
-            local_q[rows] = quat_slerp(q0, q1, weight)
-        # compose down the tree (rows are parents first); a tree root is the identity
-        depth = np.zeros(len(names), dtype=int)
-        parent_row = np.full(len(names), -1, dtype=np.int64)
+        parent_row = np.full(len(names), -1, dtype=np.int64)  # compose down the tree: rows are parents first
         for name, i in row.items():
             if name in self._parent:
                 parent_row[i] = row[self._parent[name]]
-                depth[i] = depth[parent_row[i]] + 1
-        local_p[depth == 0], local_q[depth == 0] = 0.0, IDENTITY_QUAT  # a tree root is its own origin
-        world_p, world_q = np.empty_like(local_p), np.empty_like(local_q)
-        for k in range(count):  # rows are in topological order: ancestors first
-            compose_tree(parent_row, np.ascontiguousarray(local_p[:, k]), np.ascontiguousarray(local_q[:, k]),
-                         world_p[:, k], world_q[:, k])
-        found = [row[frame] for frame in frames if frame not in missing]
-        positions, rotations = world_p[found], world_q[found]
-        if len(fixed_chain) > 1:
-            positions, rotations = compose(*inverse(world_p[row[self.fixed_frame]], world_q[row[self.fixed_frame]]),
-                                           positions, rotations)
-        return positions, rotations, missing, set(used)
+        return _ComposePlan(used=used, used_rows=[row[name] for name in used],
+                            static_rows=[(name, row[name]) for name in names if name in self._static],
+                            parent_row=parent_row, roots=parent_row < 0,
+                            found=[row[frame] for frame in frames if frame not in missing], missing=missing,
+                            fixed_row=row[self.fixed_frame] if len(fixed_chain) > 1 else -1)
 
     def sample(self, stamp_s: float, frames: Skeleton | Sequence[str]) -> PoseSample:
         """The pose of ``frames`` (a Skeleton, or frame names: a flat skeleton) in the fixed frame at ``stamp_s``."""
@@ -430,9 +468,9 @@ class PoseBuffer:
         if len(window) < 2:
             zero = np.zeros(3)
             return RootMotion(now.status, dt, len(window), position, yaw, zero, zero, 0.0, 0.0, now.detail)
-        positions, rotations, _, _ = self._compose(now.pose.skeleton.names, window)
-        yaws = [root_frame(SkeletonPose(now.pose.skeleton, positions[:, k], rotations[:, k]), roles)[1]
-                for k in range(len(window))]
+        names = now.pose.skeleton.names
+        positions, _, _, _ = self._compose(names, window)
+        yaws = headings(*(positions[names.index(roles[hip])] for hip in ("left_upper_leg", "right_upper_leg")))
         velocity, acceleration, yaw_rate, yaw_acceleration = fit_root_kinematics(
             window - float(stamp_s), positions[0], yaws)
         return RootMotion(now.status, dt, len(window), position, yaw, velocity, acceleration,

@@ -18,14 +18,17 @@ from .skeleton import SkeletonPose
 def root_frame(pose: SkeletonPose, joint_map: Mapping[str, str]) -> tuple[np.ndarray, float]:
     """Root position (3,) in metres and heading yaw in radians."""
     position = pose.frame(joint_map["pelvis"])[0]
-    left = pose.frame(joint_map["left_upper_leg"])[0]
-    right = pose.frame(joint_map["right_upper_leg"])[0]
-    lateral = left - right
-    if np.hypot(lateral[0], lateral[1]) < 1e-9:
-        raise ValueError("root_frame: the hip joints coincide in the horizontal plane; heading undefined")
-    # x = y cross z with y the leftward hip direction.
-    yaw = float(np.arctan2(-lateral[0], lateral[1]))
+    yaw = float(headings(pose.frame(joint_map["left_upper_leg"])[0], pose.frame(joint_map["right_upper_leg"])[0]))
     return np.array(position, dtype=float), yaw
+
+
+def headings(left: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """Heading yaw (...,) rad from the left and right hip joints' positions (..., 3), m (any number of
+    poses at once); ``ValueError`` when they coincide in the horizontal plane in any."""
+    lateral = np.asarray(left) - np.asarray(right)
+    if np.any(np.hypot(lateral[..., 0], lateral[..., 1]) < 1e-9):
+        raise ValueError("root_frame: the hip joints coincide in the horizontal plane; heading undefined")
+    return np.arctan2(-lateral[..., 0], lateral[..., 1])  # x = y cross z with y the leftward hip direction
 
 
 def fit_root_kinematics(times: np.ndarray, positions: np.ndarray, yaws: np.ndarray

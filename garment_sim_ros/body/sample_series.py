@@ -100,6 +100,8 @@ class SampleSeries:
         Past the newest stamp the pair is the newest and the last sample at least
         ``EXTRAPOLATION_SPAN_S`` before it: at 60 Hz the last pair, at 1 kHz not two stamps whose
         microseconds of jitter would turn into metres per second."""
+        if len(times) == 1:
+            return self._bracket_one(float(times[0]), max_extrapolation_s)
         stamps, translations, rotations = self.stamps, self.translations, self.rotations
         if len(stamps) == 1:
             p, q = np.repeat(translations, len(times), axis=0), np.repeat(rotations, len(times), axis=0)
@@ -115,3 +117,27 @@ class SampleSeries:
             high = np.where(beyond, newest, high)
         weight = np.maximum((clamped - stamps[low]) / (stamps[high] - stamps[low]), 0.0)
         return translations[low], translations[high], rotations[low], rotations[high], weight
+
+    def _bracket_one(self, time: float, max_extrapolation_s: float):
+        """``bracket`` for one time, in Python scalars (a frame samples each joint at one time: the
+        vector path's dozen numpy calls cost more than the interpolation); the same result."""
+        stamps = self.stamps
+        start, newest = self._start, len(stamps) - 1
+        if newest == 0:
+            low = high = start
+            weight = 0.0
+        else:
+            last = float(stamps[newest])
+            clamped = min(time, last + max_extrapolation_s)
+            if clamped > last:
+                base = int(np.searchsorted(stamps, last - EXTRAPOLATION_SPAN_S, side="right")) - 1
+                low, high = min(max(base, 0), newest - 1), newest
+            else:
+                low = min(max(int(np.searchsorted(stamps, clamped, side="right")) - 1, 0), newest - 1)
+                high = low + 1
+            t0 = float(stamps[low])
+            weight = max((clamped - t0) / (float(stamps[high]) - t0), 0.0)
+            low, high = start + low, start + high
+        translations, rotations = self._translations, self._rotations
+        return (translations[low:low + 1], translations[high:high + 1], rotations[low:low + 1],
+                rotations[high:high + 1], np.array([weight]))

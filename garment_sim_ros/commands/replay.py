@@ -86,7 +86,8 @@ class Replay:
         self.values = v = values
         self.buffer = PoseBuffer(v["fixed_frame"], max_age_s=v["max_skeleton_age"],
                                  max_extrapolation_s=v["max_extrapolation"])
-        # catch_up_wall_s: no wall-clock limit, the same bag must give the same garments
+        # catch_up_wall_s: no wall-clock limit, the same bag must give the same garments; the quality
+        # measured on every frame (the loop's default): offline, the node's quality_rate_hz does not apply
         self.loop = CharacterLoop(self.buffer, solver_params(v),
                                   v["garments"], v["resolution"], frame_prefix=v["frame_prefix"],
                                   root_frame=v["root_frame"], joint_map_file=v["joint_map_file"],

@@ -44,6 +44,7 @@ def status_values(loop: CharacterLoop, figures: Mapping[str, float], now_s: floa
         "status": loop.status,
         "garments": " ".join(loop.garments),
         "mass_points": str(loop.mass_points),
+        "quality_rate_hz": f"{loop.quality_rate_hz:.6g}",  # quality figures from the measured frames only
         "skeleton_age_s": f"{loop.skeleton_age(now_s):.6g}",
     })
     values.update({key: str(count) for key, count in totals.items()})

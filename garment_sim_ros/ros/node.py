@@ -122,6 +122,9 @@ class GarmentSimNode(Node):
         self.params_watch = ParamsFileWatch(self, params_file_hint)
         self.watch_timer = self.create_timer(v["watch_period"], self._on_watch_timer, clock=steady)
         self.rerun = self._create_rerun_logger()
+        if self.rerun is not None:
+            self.rerun.log_event(0.0, "info", "quality_rate", f"quality meters at {v['quality_rate_hz']:g} Hz of body "
+                                 "time (penetration, bones through, legs off, stretch on the measured frames only)")
 
     # the first (with frame_prefix alone, the only) character's
     loop = property(lambda self: self.members[0].loop)
@@ -162,6 +165,7 @@ class GarmentSimNode(Node):
             if any(key in changes for key in _CLEAR_KEYS):
                 self._clear_markers = True
                 member.restyle(self._namespace(member), self.values)
+            member.loop.quality_rate_hz = self.values["quality_rate_hz"]
             member.buffer.max_age_s = self.values["max_skeleton_age"]
             member.buffer.max_extrapolation_s = self.values["max_extrapolation"]
         if self.rerun is not None:
@@ -274,7 +278,7 @@ class GarmentSimNode(Node):
         tic = time.perf_counter()
         member.hold(result, self._namespace(member), self.values)  # stamped with the pose's time
         publish_s = time.perf_counter() - tic
-        member.stats.record_frame(result.reports, result.frame_s, result.penetration_m)
+        member.stats.record_frame(result.reports, result.frame_s, result.penetration_m, result.measured)
         recovered = [(solver.model.name, report.recovery)
                      for solver, report in zip(member.loop.character.solvers, result.reports) if report.recovery]
         if recovered:

@@ -45,6 +45,13 @@ module decides what happens:
    ``clock_not_started``). Several skeletons under the fixed frame that ``frame_prefix`` does not
    tell apart: the largest is dressed, and a warning names them all and the one picked.
 
+Quality meters (``quality``: depth, limb bones through the cloth, trouser legs off, stretch p99) are the
+largest cost of a frame outside the solver; they run on the first frame at least ``1 / quality_rate_hz``
+of body time after the last measured one, on the first frame after dressing and on a frame the solver's
+guard fired in (``FrameResult.measured``; the default, infinite, measures every frame; the node passes its
+``quality_rate_hz`` parameter). A frame made of catch-up pieces measures its last piece only (the one
+whose reports it returns).
+
 Changing garments or resolution (``set_garments``) re-dresses at the next frame, and so does a
 saved spec or mesh file of a worn garment (``check_specs``, from the node's file-watch timer: the
 frame itself touches no file); solver parameters (``set_params``) apply from the next step on.
@@ -102,8 +109,9 @@ class FrameResult:
     reports: list[FrameReport]  # one per garment; empty for the frame that dressed the character
     frame_s: float  # body time since the last frame, s (0 when dressed)
     step_s: float  # wall time of stepping (or dressing), s
-    penetration_m: float  # deepest garment point inside a volume after the frame, m
+    penetration_m: float  # deepest free garment point inside a volume after the frame, m; nan when not measured
     dressed: bool  # this frame put the garments on (first skeleton, new garments, after a gap)
+    measured: bool = True  # the quality meters ran: the reports' quality figures and penetration_m are this frame's
 
 
 class CharacterLoop:
@@ -112,8 +120,10 @@ class CharacterLoop:
     def __init__(self, buffer: PoseBuffer, params: SolverParams, garments: Sequence[str], resolution: float,
                  frame_prefix: str = "", root_frame: str = "", joint_map_file: str = "", logger=None,
                  catch_up_wall_s: float = CATCH_UP_WALL_S, body_file: str = "", garment_path: Sequence[str] = (),
-                 on_event=None):
+                 on_event=None, quality_rate_hz: float = math.inf):
         self.buffer = buffer
+        self.quality_rate_hz = quality_rate_hz  # quality meters at most this often in body time, Hz
+        self._measured_at: float | None = None  # body time of the last measured frame (None: measure the next)
         self.events = EventLog(logger, on_event)  # on_event(level, kind, message): the Rerun recording's text log
         self.params = params
         # one rule for a jump: the buffer confirms it, the loop re-dresses
@@ -252,13 +262,26 @@ class CharacterLoop:
                 return self._redress(time_s, "teleported", f"the root jumped {jump:.2f} m by {t:.3f} s (more than "
                                      f"teleport_distance {self.params.teleport_distance} m, confirmed by the next "
                                      "sample); dressing again at the new pose")
-            reports = self.character.step(pose, motion, t)
+            measured = last and self._quality_due(t)
+            reports = self.character.step(pose, motion, t, measure=measured)
+            if last and not measured and any(r.recovery for r in reports):  # a step gone bad: how it ended up
+                self.character.measure(reports, pose)
+                measured = True
             self.last_time = t
             if last:
                 break
         step_s = time.perf_counter() - tic
         self._running(time_s)
-        return FrameResult(time_s, sample.pose, reports, frame_s, step_s, self.character.max_penetration(), False)
+        penetration_m = max((r.max_depth_m for r in reports), default=0.0) if measured else math.nan
+        return FrameResult(time_s, sample.pose, reports, frame_s, step_s, penetration_m, False, measured)
+
+    def _quality_due(self, time_s: float) -> bool:
+        """Measure the frame at ``time_s``: the first after dressing, or ``1 / quality_rate_hz`` after the last
+        measured one (1 us of slack: at 60 fps and 10 Hz every 6th frame, whatever the rounding)."""
+        due = self._measured_at is None or time_s - self._measured_at >= 1.0 / self.quality_rate_hz - 1e-6
+        if due:
+            self._measured_at = time_s
+        return due
 
     def _note_behind(self, age_s: float) -> None:
         """Running on a pose older than max_extrapolation at the clock: the status says so (diagnostics
@@ -384,6 +407,7 @@ class CharacterLoop:
         character.dress(sample.pose, time_s, motion if motion.position is not None else None)
         self.character, self.skeleton, self.joint_map = character, skeleton, joint_map
         self._catching_up = self._just_dressed = True
+        self._measured_at = None  # the first frame on the new garments is measured
         self.events.log("info", "dressed", f"dressed {', '.join(self.garments)} ({self.mass_points} mass points) "
                                            f"on {len(skeleton.names)} frames under {root!r}")
         self._running(time_s)

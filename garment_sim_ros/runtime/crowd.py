@@ -107,7 +107,8 @@ def make_members(prefixes: Sequence[str], values: dict[str, Any], params: Solver
                              root_frame=values["root_frame"] if not crowd else "",
                              joint_map_file=values["joint_map_file"], body_file=values["body_file"],
                              logger=logger.get_child(name) if crowd and logger is not None and name else logger,
-                             on_event=events, garment_path=garment_folders(values["garment_path"]))
+                             on_event=events, garment_path=garment_folders(values["garment_path"]),
+                             quality_rate_hz=values["quality_rate_hz"])
         members.append(Member(prefix, buffer, loop))
     return members
 

@@ -6,7 +6,9 @@ call and starts a new window. Stage times are per frame, summed over the garment
 columns: integration, length correction, collision handling, publishing). ``recoveries`` counts the
 solver guard's events (a step restored or re-fitted, ``FrameReport.recovery``) since the start.
 The garments' quality figures (``garment_sim_ros.quality``: limb bones through the cloth, trouser
-legs off, stretch p99 and max) are the window's worst frame, summed over the garments for counts.
+legs off, stretch p99 and max) and the penetration are the window's worst measured frame (the node
+measures at ``quality_rate_hz``; ``quality_frames`` counts the measured frames), summed over the
+garments for counts.
 """
 
 from __future__ import annotations
@@ -41,7 +43,8 @@ class FrameStats:
         self._penetration = 0.0
         self._stretch = 0.0
         self._quality = {name: 0.0 for name, _, _ in REPORT_SCALARS if name != "depth_mm"}  # worst in the window
-        self._bones_frames = 0  # frames with a limb bone through a garment
+        self._bones_frames = 0  # measured frames with a limb bone through a garment
+        self._measured = 0  # frames whose quality was measured
         self._hits = [0, 0]
         self._body_s = 0.0
         self._simulated_s = 0.0
@@ -64,12 +67,16 @@ class FrameStats:
         self._ticks += 1
         self._tick_s += compute_s
 
-    def record_frame(self, reports: Sequence[FrameReport], frame_s: float, penetration_m: float) -> None:
+    def record_frame(self, reports: Sequence[FrameReport], frame_s: float, penetration_m: float,
+                     measured: bool = True) -> None:
         """A simulated frame: the garments' reports (none for a dressing frame), the body time it
-        covered, the deepest penetration after it."""
+        covered, the deepest penetration after it; ``measured``: its quality figures and penetration were
+        measured (``FrameResult.measured``), else they are not this frame's and are left out."""
         self._frames += 1
         self.total_frames += 1
-        self._penetration = max(self._penetration, penetration_m)
+        if measured:
+            self._measured += 1
+            self._penetration = max(self._penetration, penetration_m)
         if not reports:  # the dressing frame
             return
         self._stepped += 1
@@ -79,16 +86,18 @@ class FrameStats:
         self._stages["correction"] += sum(r.correction_s for r in reports)
         self._stages["collision"] += sum(r.collision_s for r in reports)
         self._stretch = max(self._stretch, max(r.max_stretch for r in reports))
+        self.lag_s = max(r.lag_s for r in reports)
+        self._body_s += frame_s
+        self._simulated_s += min(r.simulated_s for r in reports)
+        self._hits = [sum(r.static_hits for r in reports), sum(r.dynamic_hits for r in reports)]
+        if not measured:
+            return
         for name, field, _ in REPORT_SCALARS:
             if name in self._quality:
                 values = [getattr(r, field) for r in reports]
                 frame = sum(values) if name in _COUNTS else max(values)
                 self._quality[name] = max(self._quality[name], frame)
         self._bones_frames += any(r.bones_through for r in reports)
-        self._hits = [sum(r.static_hits for r in reports), sum(r.dynamic_hits for r in reports)]
-        self.lag_s = max(r.lag_s for r in reports)
-        self._body_s += frame_s
-        self._simulated_s += min(r.simulated_s for r in reports)
 
     def record_publish(self, seconds: float) -> None:
         self._stages["publish"] += seconds
@@ -99,10 +108,11 @@ class FrameStats:
         ``lag_fraction``, the share of the body's time the garments did not simulate in the window
         (past ``max_substeps``); ``lag_s`` is the garments' total lag since they were dressed; the
         quality figures (``bones_through``, ``legs_off``, ``structural_stretch_p99``... as in
-        ``quality.REPORT_SCALARS``) are the window's worst frame, ``bones_through_frames`` counts the
-        window's frames with a limb bone through a garment; ``input_hz``, the /tf messages of the character
-        absorbed per second, ``input_lag_p50_ms`` / ``_p99_ms``, their receive time minus stamp, and
-        ``input_backlog``, the most /tf messages one frame found waiting."""
+        ``quality.REPORT_SCALARS``) are the window's worst measured frame, ``bones_through_frames`` counts
+        the window's measured frames with a limb bone through a garment, ``quality_frames`` the frames
+        measured; ``input_hz``, the /tf messages of the character absorbed per second,
+        ``input_lag_p50_ms`` / ``_p99_ms``, their receive time minus stamp, and ``input_backlog``,
+        the most /tf messages one frame found waiting."""
         elapsed = max(time.monotonic() - self._window_start, 1e-9)
         per_frame = max(self._frames, 1)
         per_step = max(self._stepped, 1)
@@ -120,6 +130,7 @@ class FrameStats:
             "max_stretch": self._stretch,
             **self._quality,
             "bones_through_frames": float(self._bones_frames),
+            "quality_frames": float(self._measured),
             "static_hits": float(self._hits[0]),
             "dynamic_hits": float(self._hits[1]),
             "input_hz": len(self._input_lags) / elapsed,

@@ -142,6 +142,15 @@ class _CdrWriter:
     def boolean(self, value: bool) -> None:
         self._append(b"\x01" if value else b"\x00", 1)
 
+    def constant(self, block: "_Block") -> None:
+        """A block written once ahead (``_Block``), at a 4-aligned offset: its bytes and padding as they were."""
+        if self.offset % 4:
+            raise ValueError("a constant CDR block starts 4-aligned")
+        start = _HEADER_SIZE + self.offset
+        self.padding.extend((start + a, start + b) for a, b in block.padding)
+        self.chunks.append(block.data)
+        self.offset += len(block.data)
+
     def time(self, sec_nanosec: tuple[int, int]) -> None:
         """builtin_interfaces/Time or Duration: int32 sec, uint32 nanosec."""
         self._append(struct.pack("<iI", *sec_nanosec), 4)
@@ -162,17 +171,17 @@ class _CdrWriter:
             self._append(flat.view(np.uint8), flat.dtype.itemsize)
 
 
-def _write_marker(writer: _CdrWriter, marker: MarkerData) -> None:
-    writer.time(marker.stamp)  # std_msgs/Header header
-    writer.string(marker.frame_id)
-    writer.string(marker.ns)
-    writer.int32(marker.id, marker.type, marker.action)
-    writer.float64(np.concatenate([marker.position, marker.orientation, marker.scale]))  # pose, scale
-    writer.float32(marker.color)
-    writer.time(marker.lifetime)
-    writer.boolean(marker.frame_locked)
-    writer.struct_sequence(marker.points, "<f8")  # geometry_msgs/Point[]
-    writer.struct_sequence(marker.colors, "<f4")  # std_msgs/ColorRGBA[]
+@dataclass(frozen=True)
+class _Block:
+    """CDR bytes written once, for a 4-aligned start: ``data`` and its padding ranges relative to it."""
+
+    data: bytes
+    padding: tuple[tuple[int, int], ...]
+
+
+def _empty_tail() -> _Block:
+    """The fields after ``colors``, always empty here: written once (a marker's CDR is ~25 fields, this is 11)."""
+    writer = _CdrWriter()
     writer.string("")  # texture_resource
     writer.time((0, 0))  # texture (sensor_msgs/CompressedImage): header, format, data
     writer.string("")
@@ -184,6 +193,27 @@ def _write_marker(writer: _CdrWriter, marker: MarkerData) -> None:
     writer.string("")  # mesh_file (visualization_msgs/MeshFile): filename, data
     writer.uint32(0)
     writer.boolean(False)  # mesh_use_embedded_materials
+    return _Block(b"".join(writer.chunks[1:]), tuple((a - _HEADER_SIZE, b - _HEADER_SIZE) for a, b in writer.padding))
+
+
+_EMPTY_TAIL = _empty_tail()
+_POSE_SCALE = struct.Struct("<10d")  # pose (position, orientation), scale: float64 from an 8-aligned offset
+_LIFETIME_LOCKED = struct.Struct("<iI?")  # lifetime (builtin_interfaces/Duration), frame_locked
+
+
+def _write_marker(writer: _CdrWriter, marker: MarkerData) -> None:
+    writer.time(marker.stamp)  # std_msgs/Header header
+    writer.string(marker.frame_id)
+    writer.string(marker.ns)
+    writer.int32(marker.id, marker.type, marker.action)
+    # pose and scale (float64), color (float32), lifetime and frame_locked follow one another with no
+    # padding once the float64 are aligned: one chunk
+    writer._append(_POSE_SCALE.pack(*marker.position, *marker.orientation, *marker.scale)
+                   + marker.color.astype("<f4").tobytes()
+                   + _LIFETIME_LOCKED.pack(*marker.lifetime, marker.frame_locked), 8)
+    writer.struct_sequence(marker.points, "<f8")  # geometry_msgs/Point[]
+    writer.struct_sequence(marker.colors, "<f4")  # std_msgs/ColorRGBA[]
+    writer.constant(_EMPTY_TAIL)  # texture, uv_coordinates, text, mesh_resource, mesh_file, ...
 
 
 def _write_marker_array(markers: list[MarkerData]) -> _CdrWriter:

@@ -112,6 +112,13 @@ NODE_PARAMETERS: tuple[NodeParam, ...] = (
               "marker namespace: garments on <ns>/<garment>, body volumes on <ns>/volumes"),
     NodeParam("publish_volumes", True, "", None, None, "also publish the body volumes as SPHERE markers"),
     NodeParam("diagnostics_period", 1.0, "s", 0.1, 60.0, "period of the /diagnostics status"),
+    NodeParam("quality_rate_hz", 10.0, "Hz", 1.0, 1000.0,
+              "how often the garments' quality meters run (penetration depth, limb bones through the cloth, "
+              "trouser legs off, stretch p99; the largest cost of a character's frame outside the solver): on "
+              "the first frame at least 1/rate of body time after the last measured one, on the frame after "
+              "dressing and on a frame the solver's guard fired in; rate_hz or more: every frame. The "
+              "diagnostics and Rerun say the rate and count the measured frames; garment-sim evaluate and "
+              "replay measure every frame"),
     NodeParam("rerun_sink", "off", "", None, None,
               "Rerun logging: off, save (to rerun_path), connect (to the viewer at rerun_url) or serve "
               "(gRPC on every interface)", RERUN_SINKS, read_only=True),
