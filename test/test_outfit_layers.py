@@ -135,21 +135,23 @@ def test_evaluate_takes_outfits_joined_by_plus():
 # Measured (README, "Outfits"): frames with an outer edge through an inner triangle in the 1 s runs at 1x,
 # 60 fps (without the layers: 60, 60 and 28 of 60). The bound is the measurement, not zero: a long skirt's
 # 10-18 cm edges can straddle a trouser leg, and a point the layers would push into a volume stays put.
-OUTFITS = [("xia_strutting_01_000", "pants+long_skirt", 3),
-           ("xia_strutting_01_000", "pants+one_piece", 1),
-           ("xia_strutting_01_000", "short_skirt+cape", 0)]
+# The last column: the outfit meets every target of the real-motion issue, stretch (d) included.
+OUTFITS = [("xia_strutting_01_000", "pants+long_skirt", 5, False),
+           ("xia_strutting_01_000", "pants+one_piece", 0, True),
+           ("xia_strutting_01_000", "short_skirt+cape", 0, False)]
 
 
-@pytest.mark.parametrize("clip, outfit, crossing_frames", OUTFITS)
-def test_an_outer_garment_stays_outside_the_inner_one_on_a_real_clip(clip, outfit, crossing_frames):
+@pytest.mark.parametrize("clip, outfit, crossing_frames, every_target", OUTFITS)
+def test_an_outer_garment_stays_outside_the_inner_one_on_a_real_clip(clip, outfit, crossing_frames, every_target):
     from garment_sim_ros.commands.evaluate import Run, evaluate_run
 
     row = evaluate_run(Run(str(DATA / f"{clip}.bvh"), outfit, 1.0, 60.0, 1.0))
     assert row["frames"] == 60 and [layer["garment"] for layer in row["layers"]] == outfit.split("+")
     assert row["layer_crossing_frames"] <= crossing_frames
     assert row["targets"]["f"] == (row["layer_crossing_frames"] == 0)
-    # both layers meet the body targets of the real-motion issue (stretch (d) is not met yet: README)
-    failed = {k: ok for k, ok in row["targets"].items() if k not in ("d", "f") and ok is False}
+    # both layers meet the body targets of the real-motion issue; stretch (d) where the last column says so
+    # (the cape's and the trousers-under-a-long-skirt's are not met yet: README)
+    failed = {k: ok for k, ok in row["targets"].items() if (every_target or k not in ("d", "f")) and ok is False}
     assert failed == {}, row["layers"]
 
 
