@@ -36,13 +36,13 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from dataclasses import dataclass
 from numbers import Real
 from typing import Mapping, Sequence
 
 import numpy as np
 
 from ..transforms import IDENTITY_QUAT, compose, inverse, quat_slerp
+from .compose_plan import ComposePlan, tree_chain
 from .jumps import JumpHold, is_jump
 from .root import fit_root_kinematics, headings, root_frame
 from .sample_series import SampleSeries
@@ -51,20 +51,6 @@ from .skeleton import Skeleton, SkeletonPose, compose_tree
 
 _UNIT_SILENT = 1e-3  # |q| within this of 1 is rounding: normalised without being counted
 _MAX_PLANS = 64  # sets of frames whose composition plan is kept (the skeleton, its root frames, ...)
-
-
-@dataclass(frozen=True)
-class _ComposePlan:
-    """Which rows ``PoseBuffer._compose`` fills for a set of frames (valid while the tree is unchanged)."""
-
-    used: list[str]  # the dynamic frames needed
-    used_rows: list[int]  # ...their rows
-    static_rows: list[tuple[str, int]]  # the static frames needed and their rows
-    parent_row: np.ndarray  # (R,) int64: each row's parent row, -1 for a tree root
-    roots: np.ndarray  # (R,) bool: the tree roots (their own origin)
-    found: list[int]  # the rows of the frames asked for that reach the fixed frame, in their order
-    missing: list[str]  # the frames asked for that do not
-    fixed_row: int  # the fixed frame's row when it is not the tree's root, else -1
 
 
 def _as_vector(value, size: int) -> list[float] | None:
@@ -124,7 +110,7 @@ class PoseBuffer:
         self._static: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._dynamic: dict[str, SampleSeries] = {}
         self._tree_version = 0  # bumped whenever a frame, a parent link or a frame's kind (static, dynamic) changes
-        self._plans: dict[tuple, _ComposePlan] = {}  # _compose's plan per (frames, fixed frame) of this version
+        self._plans: dict[tuple, ComposePlan] = {}  # _compose's plan per (frames, fixed frame) of this version
 
     # ------------------------------------------------------------------ input
 
@@ -324,13 +310,6 @@ class PoseBuffer:
 
     # ------------------------------------------------------------------ sampling
 
-    def _chain(self, frame: str) -> list[str]:
-        """``frame`` and its ancestors up to the tree's root (the last entry)."""
-        chain = [frame]
-        while chain[-1] in self._parent:
-            chain.append(self._parent[chain[-1]])
-        return chain
-
     def _compose(self, frames: Sequence[str], times: np.ndarray):
         """Poses of ``frames`` in the fixed frame at ``times`` (K,): positions (F, K, 3), rotations
         (F, K, 4), the frames not connected to the fixed frame, and the dynamic frames used.
@@ -343,7 +322,8 @@ class PoseBuffer:
         if plan is None:
             if len(self._plans) >= _MAX_PLANS:  # callers asking for ever new sets of frames: start again
                 self._plans.clear()
-            plan = self._plans[key] = self._plan(frames)
+            plan = ComposePlan.of(frames, self.fixed_frame, self._parent, self._dynamic, self._static)
+            self._plans[key] = plan
         count = len(times)
         size = len(plan.parent_row)
         local_p = np.zeros((size, count, 3))
@@ -367,34 +347,6 @@ class PoseBuffer:
             positions, rotations = compose(*inverse(world_p[plan.fixed_row], world_q[plan.fixed_row]),
                                            positions, rotations)
         return positions, rotations, list(plan.missing), set(plan.used)
-
-    def _plan(self, frames: Sequence[str]) -> "_ComposePlan":
-        """``_compose``'s tree walk for ``frames``: every frame needed, parents first, and what each row is."""
-        known = set(self._parent) | set(self._parent.values())
-        fixed_chain = self._chain(self.fixed_frame)
-        row: dict[str, int] = {}  # every frame needed, parents before children
-        missing = []
-        for frame in frames:
-            chain = self._chain(frame)
-            if frame != self.fixed_frame and (frame not in known or chain[-1] != fixed_chain[-1]):
-                missing.append(frame)
-                continue
-            for name in reversed(chain):
-                row.setdefault(name, len(row))
-        if len(row) > 0:
-            for name in reversed(fixed_chain):
-                row.setdefault(name, len(row))
-        names = list(row)
-        used = [name for name in names if name in self._dynamic]
-        parent_row = np.full(len(names), -1, dtype=np.int64)  # compose down the tree: rows are parents first
-        for name, i in row.items():
-            if name in self._parent:
-                parent_row[i] = row[self._parent[name]]
-        return _ComposePlan(used=used, used_rows=[row[name] for name in used],
-                            static_rows=[(name, row[name]) for name in names if name in self._static],
-                            parent_row=parent_row, roots=parent_row < 0,
-                            found=[row[frame] for frame in frames if frame not in missing], missing=missing,
-                            fixed_row=row[self.fixed_frame] if len(fixed_chain) > 1 else -1)
 
     def sample(self, stamp_s: float, frames: Skeleton | Sequence[str]) -> PoseSample:
         """The pose of ``frames`` (a Skeleton, or frame names: a flat skeleton) in the fixed frame at ``stamp_s``."""
@@ -430,7 +382,7 @@ class PoseBuffer:
             return f"{frame!r}: the fixed frame {self.fixed_frame!r} is not in the tree"
         if frame not in self.frames:
             return f"{frame!r}: no transform names it"
-        chain = self._chain(frame)
+        chain = tree_chain(frame, self._parent)
         return f"{frame!r}: {' -> '.join(chain)} does not reach {self.fixed_frame!r}"
 
     # ------------------------------------------------------------------ root kinematics
