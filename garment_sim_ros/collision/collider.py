@@ -190,7 +190,7 @@ class Collider:
                                        self._switch_ratio, mode, contacts))
 
     def _edges(self, x_start, x, inv_mass, edges, rest_lengths) -> int:
-        return int(kernels.handle_edges(self._packed, x_start, x, inv_mass, edges, rest_lengths))
+        return int(kernels.handle_edges(self._packed, x_start, x, inv_mass, edges, rest_lengths, self._pinch_depth))
 
     def _axes(self, x_start, x, v, inv_mass, h: float, triangles) -> int:
         return int(crossing.handle_axes(self._packed, x_start, x, v, inv_mass, h, triangles, self._eps,
