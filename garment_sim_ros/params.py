@@ -138,6 +138,9 @@ PARAMETERS: tuple[Param, ...] = (
     Param("pinch_depth", 0.001, "m", 0.0, 0.1,
           "a triangle a bone passes through is moved off it unless that puts a point deeper than this into "
           "another volume (a pinch: a hand on the hip); contact wins there"),
+    Param("edge_pinch_depth", 0.0, "m", 0.0, 0.1,
+          "opt-in: an edge a limb cuts stays cut when moving it out would put an end deeper than this into "
+          "another volume (a thigh against the belly); 0: off, edges always move out"),
     Param("collision_mode", "adaptive", "", None, None,
           "adaptive (memo §6.2.1), static only or dynamic only", COLLISION_MODES),
     # layers (garments worn over each other)
@@ -183,6 +186,7 @@ class SolverParams:
     dynamic_switch_ratio: float
     max_distance: float
     pinch_depth: float
+    edge_pinch_depth: float
     collision_mode: str
     layer_thickness: float
 

@@ -303,3 +303,25 @@ def test_an_edge_a_limb_cuts_through_goes_back_out_on_the_side_it_came_from():
     collider.handle_edges(x + [0.07, 0.0, 0.0], x, np.array([0.0, 1.0]), np.array([[0, 1]]), rest)
     np.testing.assert_array_equal(x[0], [0.01, 0.06, 0.0])
     assert x[1, 0] > 0.01
+
+
+@pytest.mark.parametrize("edge_pinch_depth", [0.001, 0.05, 0.0])
+def test_an_edge_cut_by_a_limb_pressed_into_the_belly_stays_in_the_pinch(edge_pinch_depth):
+    """The edge through the shin as above, came from +x, where a belly (a 20 cm sphere) presses against the
+    shin: back out on its side, its ends would be 11 mm inside the belly. Past ``pinch_depth`` contact wins
+    and the edge stays where it is (a thigh raised against the belly, CC cartwheel: edges moved 10-19 cm
+    from one volume into the other threw the skirt between them); allowed deeper, or off (0, the default),
+    it goes out of the shin."""
+    belly_centre = np.array([0.22, 0.0, 0.0])
+    collider = Collider(VolumeSet((Volume("shin", ELLIPSOID, "f", (0.05, 0.05, 0.3)),
+                                   Volume("belly", ELLIPSOID, "f", (0.2, 0.2, 0.2)))), 2, cache_size=1)
+    collider.set_params(DEFAULT_PARAMS.replace(edge_pinch_depth=edge_pinch_depth))
+    pose = (np.array([[0.0, 0.0, 0.0], belly_centre]), np.array([IDENTITY_QUAT, IDENTITY_QUAT]))
+    collider.begin_frame(*pose, *pose)
+    cut = np.array([[0.01, 0.06, 0.0], [0.01, -0.06, 0.0]])
+    x = cut.copy()
+    moved = collider.handle_edges(x + [0.07, 0.0, 0.0], x, np.ones(2), np.array([[0, 1]]), np.array([0.06]))
+    if 0.0 < edge_pinch_depth < 0.011:
+        assert moved == 0 and np.array_equal(x, cut)
+    else:  # out of the shin into the belly, then the edge dipping into the belly back towards the shin
+        assert moved == 2 and not np.array_equal(x, cut)

@@ -77,6 +77,7 @@ class Collider:
         self._friction = float(params.friction)
         self._eps = float(params.collision_epsilon)
         self._pinch_depth = float(params.pinch_depth)
+        self._edge_pinch_depth = float(params.edge_pinch_depth)
         self._c_time = float(params.contact_time_fraction)
         self._switch_ratio = float(params.dynamic_switch_ratio)
         self._mode = _MODES[params.collision_mode]
@@ -190,7 +191,8 @@ class Collider:
                                        self._switch_ratio, mode, contacts))
 
     def _edges(self, x_start, x, inv_mass, edges, rest_lengths) -> int:
-        return int(kernels.handle_edges(self._packed, x_start, x, inv_mass, edges, rest_lengths))
+        return int(kernels.handle_edges(self._packed, x_start, x, inv_mass, edges, rest_lengths,
+                                        self._edge_pinch_depth))
 
     def _axes(self, x_start, x, v, inv_mass, h: float, triangles) -> int:
         return int(crossing.handle_axes(self._packed, x_start, x, v, inv_mass, h, triangles, self._eps,

@@ -29,14 +29,13 @@ import math
 from .geometry import (
     capsule_entry,
     kernel,
-    penetration_depth,
     quadric_entry,
     rotate,
     static_projection,
     to_local,
     to_world,
 )
-from .response import surface_velocity
+from .response import depth_elsewhere, surface_velocity
 from .volume_arrays import VolumeArrays
 from .volumes import CAPSULE
 
@@ -192,20 +191,6 @@ def _room(vol, v, lx, ly, lz, ux, uy, length):
 
 
 @kernel
-def _depth_elsewhere(vol, v, px, py, pz):
-    """Depth (m) of the simulation-frame point p in the deepest volume other than v (end poses)."""
-    kinds, radii, cuts, bounding_radii = vol.kinds, vol.radii, vol.cuts, vol.bounding_radii
-    pos, rot = vol.pos1, vol.rot1
-    deepest = 0.0
-    for o in range(kinds.shape[0]):
-        if o == v or (px - pos[o, 0]) ** 2 + (py - pos[o, 1]) ** 2 + (pz - pos[o, 2]) ** 2 > bounding_radii[o] ** 2:
-            continue
-        lx, ly, lz = to_local(pos, rot, o, px, py, pz)
-        deepest = max(deepest, penetration_depth(kinds[o], radii, cuts, o, lx, ly, lz))
-    return deepest
-
-
-@kernel
 def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, pinch_depth, corners):
     """Move triangle t, crossed by volume v's axis at local height z (barycentric u, w), off the bone to
     its side (unit local direction (ux, uy), ``_side_direction``): each corner short of ``eps`` along it
@@ -236,7 +221,7 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
                 out = _room(vol, v, lx, ly, lz, rx, ry, out)
                 lx, ly = lx + out * rx, ly + out * ry
         corners[k, 0], corners[k, 1], corners[k, 2] = to_world(pos1, rot1, v, lx, ly, lz)
-        if _depth_elsewhere(vol, v, corners[k, 0], corners[k, 1], corners[k, 2]) > pinch_depth:
+        if depth_elsewhere(vol, v, corners[k, 0], corners[k, 1], corners[k, 2]) > pinch_depth:
             return False  # no room for the cloth between this bone and another volume: contact wins
     wnx, wny, wnz = rotate(rot1, v, ux, uy, 0.0)
     for k in range(3):

@@ -40,7 +40,7 @@ from .geometry import (
     static_projection,
     to_local,
 )
-from .response import MODE_STATIC, NO_HIT, STATIC_HIT, handle_pair
+from .response import MODE_STATIC, NO_HIT, STATIC_HIT, depth_elsewhere, handle_pair
 from .volume_arrays import VolumeArrays
 from .volumes import CAPSULE, SPHERE
 
@@ -239,7 +239,7 @@ _EDGE_SLACK = 1.02
 
 
 @kernel
-def handle_edges(arrays, xs, x, inv_mass, edges, rest_lengths):
+def handle_edges(arrays, xs, x, inv_mass, edges, rest_lengths, edge_pinch_depth):
     """Cloth edges against the volumes at the end poses (beyond the memo, which handles mass points only).
 
     physics: a limb pressed into an edge pushes its two mass points apart round its sides; once the
@@ -251,7 +251,12 @@ def handle_edges(arrays, xs, x, inv_mass, edges, rest_lengths):
     The side is the one the edge came from when that point of the edge was clear of the volume at the
     substep's start (``xs``, start poses ``pos0``/``rot0``), as the dynamic point handling does -- a
     limb moving further than its radius in one substep can pass an edge's middle past its axis;
-    else the nearer one. Returns the number of edges moved.
+    else the nearer one. Opt-in (``edge_pinch_depth`` m > 0): in a pinch -- the move would put an end
+    deeper than that into another volume -- the edge stays (contact over crossing, as
+    ``crossing.handle_axes``): a thigh raised against the belly (CC cartwheel, issue 11) overlaps the
+    torso's volume by 3-7 cm, and edges moved out of one into the other threw the skirt between them
+    10-19 cm a substep, past the guard's stretch. Off by default: the thigh then leaves the trousers'
+    leg through the edges left (README, "Real motion"). Returns the number of edges moved.
     """
     vol = VolumeArrays(*arrays)
     kinds, radii, cuts, bounding_radii, boxes = vol.kinds, vol.radii, vol.cuts, vol.bounding_radii, vol.boxes
@@ -306,6 +311,10 @@ def handle_edges(arrays, xs, x, inv_mass, edges, rest_lengths):
             if excess <= 0.0:
                 continue
             wx, wy, wz = rotate(rot, v, excess * nx, excess * ny, excess * nz)
+            if edge_pinch_depth > 0.0 and (
+                    depth_elsewhere(vol, v, x[a, 0] + wx, x[a, 1] + wy, x[a, 2] + wz) > edge_pinch_depth
+                    or depth_elsewhere(vol, v, x[b, 0] + wx, x[b, 1] + wy, x[b, 2] + wz) > edge_pinch_depth):
+                continue  # out of v is into another volume: a pinch, where contact wins (see the docstring)
             for i in (a, b):
                 if inv_mass[i] > 0.0:
                     x[i, 0] += wx

@@ -22,6 +22,7 @@ import math
 from .geometry import (
     capsule_entry,
     kernel,
+    penetration_depth,
     quadric_entry,
     rotate,
     static_projection,
@@ -127,6 +128,21 @@ def handle_pair(vol, v, xs, x, vel, i, h, eps, friction, c_time, switch_ratio, m
             sx, sy, sz, nx, ny, nz = bx, by, cuts[v, 1], 0.0, 0.0, 1.0
     _respond(vol, v, x, vel, i, sx, sy, sz, nx, ny, nz, eps, friction, h, 0.0)
     return STATIC_HIT, 1.0, sx, sy, sz
+
+
+@kernel
+def depth_elsewhere(vol, v, px, py, pz):
+    """Depth (m) of the simulation-frame point p in the deepest volume other than v (end poses): what a move
+    out of v costs in a pinch (``crossing``, ``kernels.handle_edges``)."""
+    kinds, radii, cuts, bounding_radii = vol.kinds, vol.radii, vol.cuts, vol.bounding_radii
+    pos, rot = vol.pos1, vol.rot1
+    deepest = 0.0
+    for o in range(kinds.shape[0]):
+        if o == v or (px - pos[o, 0]) ** 2 + (py - pos[o, 1]) ** 2 + (pz - pos[o, 2]) ** 2 > bounding_radii[o] ** 2:
+            continue
+        lx, ly, lz = to_local(pos, rot, o, px, py, pz)
+        deepest = max(deepest, penetration_depth(kinds[o], radii, cuts, o, lx, ly, lz))
+    return deepest
 
 
 @kernel
