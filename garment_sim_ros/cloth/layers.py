@@ -4,7 +4,8 @@ After the body volumes (each garment's own frame step; ``dressing.DressedCharact
 frame, see there), every outer garment is kept on the outside of every inner garment's surface,
 ``thickness`` off it (``params.layer_thickness``), in four passes over the outer garment, with the
 inner garment's triangles (outward normals: counter-clockwise seen from outside) binned into a uniform
-grid (the broad phase: each triangle in every cell its box grown by ``reach`` touches):
+grid (the broad phase: each triangle in every cell its box touches; a point or edge meets the triangles of
+the cells its box, grown by how near it looks, touches):
 
 1. path: a point whose motion over the frame (``x_prev`` -> ``x``) went through an inner triangle from
    its outer side is put back on that side, at the crossing;
@@ -38,19 +39,20 @@ from ..collision.crossing import segment_crosses_triangle, segment_misses_triang
 REACH_M = 0.05  # m: an outer point this close over an inner garment's triangle is checked against it
 _SETTLED = 1e-6  # m: a point this close to the thickness is where it belongs (no sweep for rounding)
 SWEEPS = 3  # separate's passes run again while they move a point, at most this many times
+CELL_PER_TRIANGLE = 1.5  # the grid's cell, in a typical inner triangle's radii (centroid to farthest corner)
 _TRACK_DEPTH = 0.05  # m: a point this far behind the triangle it was over has not been pushed through it
 
 
 @njit(cache=True)
-def build_grid(y, triangles, pad, cell):
+def build_grid(y, triangles, cell):
     """Triangles of points ``y`` (M, 3) binned into cubic cells of ``cell`` m, each in every cell its box
-    grown by ``pad`` m touches. Returns (origin (3,) m, dims (3,) int, starts (C+1,), entries) with cell
-    ``(i * dims[1] + j) * dims[2] + k`` holding ``entries[starts[key]:starts[key + 1]]``."""
+    touches (a counting sort: count, prefix sum, fill). Returns (origin (3,) m, dims (3,) int, starts (C+1,),
+    entries) with cell ``(i * dims[1] + j) * dims[2] + k`` holding ``entries[starts[key]:starts[key + 1]]``."""
     lo = np.empty(3)
     hi = np.empty(3)
     for k in range(3):
-        lo[k] = y[:, k].min() - pad - 1e-6
-        hi[k] = y[:, k].max() + pad + 1e-6
+        lo[k] = y[:, k].min() - 1e-6
+        hi[k] = y[:, k].max() + 1e-6
     dims = np.empty(3, dtype=np.int64)
     for k in range(3):
         dims[k] = int((hi[k] - lo[k]) / cell) + 1
@@ -65,12 +67,12 @@ def build_grid(y, triangles, pad, cell):
             fill = starts[:-1].copy()
         for t in range(triangles.shape[0]):
             a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-            i0 = int((min(y[a, 0], y[b, 0], y[c, 0]) - pad - lo[0]) / cell)
-            i1 = int((max(y[a, 0], y[b, 0], y[c, 0]) + pad - lo[0]) / cell)
-            j0 = int((min(y[a, 1], y[b, 1], y[c, 1]) - pad - lo[1]) / cell)
-            j1 = int((max(y[a, 1], y[b, 1], y[c, 1]) + pad - lo[1]) / cell)
-            k0 = int((min(y[a, 2], y[b, 2], y[c, 2]) - pad - lo[2]) / cell)
-            k1 = int((max(y[a, 2], y[b, 2], y[c, 2]) + pad - lo[2]) / cell)
+            i0 = int((min(y[a, 0], y[b, 0], y[c, 0]) - lo[0]) / cell)
+            i1 = int((max(y[a, 0], y[b, 0], y[c, 0]) - lo[0]) / cell)
+            j0 = int((min(y[a, 1], y[b, 1], y[c, 1]) - lo[1]) / cell)
+            j1 = int((max(y[a, 1], y[b, 1], y[c, 1]) - lo[1]) / cell)
+            k0 = int((min(y[a, 2], y[b, 2], y[c, 2]) - lo[2]) / cell)
+            k1 = int((max(y[a, 2], y[b, 2], y[c, 2]) - lo[2]) / cell)
             for i in range(max(i0, 0), min(i1, dims[0] - 1) + 1):
                 for j in range(max(j0, 0), min(j1, dims[1] - 1) + 1):
                     for k in range(max(k0, 0), min(k1, dims[2] - 1) + 1):
@@ -105,13 +107,15 @@ def _cell_range(lo_p, hi_p, origin, dims, cell, axis):
 
 
 @njit(cache=True, inline="always")
-def _near_segment(px, py, pz, qx, qy, qz, origin, dims, cell, starts, entries, stamp, query, found):
-    """The triangles binned in the cells the box of segment p -> q touches, each once, written to ``found``
-    (T,); returns how many. ``stamp`` (T,) holds the last query that found each triangle; ``query`` is new."""
+def _near_box(lox, loy, loz, hix, hiy, hiz, origin, dims, cell, starts, entries, stamp, query, found, ordered):
+    """The triangles binned in the cells the box ``lo`` .. ``hi`` touches, each once, written to ``found``
+    (T,); returns how many. ``stamp`` (T,) holds the last query that found each triangle; ``query`` is new.
+    ``ordered``: in increasing order, so that pushes made one after another (the edge passes) do not depend
+    on the grid's cells."""
     count = 0
-    i0, i1 = _cell_range(min(px, qx), max(px, qx), origin, dims, cell, 0)
-    j0, j1 = _cell_range(min(py, qy), max(py, qy), origin, dims, cell, 1)
-    k0, k1 = _cell_range(min(pz, qz), max(pz, qz), origin, dims, cell, 2)
+    i0, i1 = _cell_range(lox, hix, origin, dims, cell, 0)
+    j0, j1 = _cell_range(loy, hiy, origin, dims, cell, 1)
+    k0, k1 = _cell_range(loz, hiz, origin, dims, cell, 2)
     for ci in range(i0, i1):
         for cj in range(j0, j1):
             for ck in range(k0, k1):
@@ -120,9 +124,21 @@ def _near_segment(px, py, pz, qx, qy, qz, origin, dims, cell, starts, entries, s
                     t = entries[e]
                     if stamp[t] != query:
                         stamp[t] = query
-                        found[count] = t
+                        # insertion: an edge's box finds a few tens of triangles
+                        m = count
+                        while ordered and m > 0 and found[m - 1] > t:
+                            found[m] = found[m - 1]
+                            m -= 1
+                        found[m] = t
                         count += 1
     return count
+
+
+@njit(cache=True, inline="always")
+def _near_segment(px, py, pz, qx, qy, qz, pad, origin, dims, cell, starts, entries, stamp, query, found, ordered):
+    """``_near_box`` for the box of segment p -> q grown by ``pad`` m."""
+    return _near_box(min(px, qx) - pad, min(py, qy) - pad, min(pz, qz) - pad, max(px, qx) + pad, max(py, qy) + pad,
+                     max(pz, qz) + pad, origin, dims, cell, starts, entries, stamp, query, found, ordered)
 
 
 @njit(cache=True, inline="always")
@@ -205,8 +221,8 @@ def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, radi
             dx, dy, dz = x[i, 0] - px, x[i, 1] - py, x[i, 2] - pz
             best_s, best_t = 2.0, -1
             query += 1
-            for m in range(_near_segment(px, py, pz, x[i, 0], x[i, 1], x[i, 2], origin, dims, cell, starts, entries,
-                                         stamp, query, found)):
+            for m in range(_near_segment(px, py, pz, x[i, 0], x[i, 1], x[i, 2], 0.0, origin, dims, cell, starts,
+                                         entries, stamp, query, found, False)):
                 t = found[m]
                 # from the outer side to the inner side only
                 if dx * normals[t, 0] + dy * normals[t, 1] + dz * normals[t, 2] >= 0.0:
@@ -239,14 +255,11 @@ def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, radi
                 moved += 1
         tracked[i] = -1
         px, py, pz = x[i, 0], x[i, 1], x[i, 2]
-        ci, cj, ck = (int(math.floor((px - origin[0]) / cell)), int(math.floor((py - origin[1]) / cell)),
-                      int(math.floor((pz - origin[2]) / cell)))
-        if ci < 0 or cj < 0 or ck < 0 or ci >= dims[0] or cj >= dims[1] or ck >= dims[2]:
-            continue
-        key = (ci * dims[1] + cj) * dims[2] + ck
         best_d, best_t = reach, -1
-        for e in range(starts[key], starts[key + 1]):
-            t = entries[e]
+        query += 1
+        for m in range(_near_segment(px, py, pz, px, py, pz, reach, origin, dims, cell, starts, entries, stamp, query,
+                                     found, False)):
+            t = found[m]
             a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
             d = _height(x, i, y, a, normals, t)
             if abs(d) < abs(best_d) and _over(px, py, pz, y, a, b, c, normals[t, 0], normals[t, 1], normals[t, 2]):
@@ -259,8 +272,8 @@ def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, radi
     for k in range(edges.shape[0]):
         p0, p1 = edges[k, 0], edges[k, 1]
         query += 1
-        for m in range(_near_segment(x[p0, 0], x[p0, 1], x[p0, 2], x[p1, 0], x[p1, 1], x[p1, 2], origin, dims, cell,
-                                     starts, entries, stamp, query, found)):
+        for m in range(_near_segment(x[p0, 0], x[p0, 1], x[p0, 2], x[p1, 0], x[p1, 1], x[p1, 2], thickness, origin,
+                                     dims, cell, starts, entries, stamp, query, found, True)):
             t = found[m]
             if _apart(x, p0, p1, y, triangles, t, thickness):
                 continue  # most triangles of a cell are nowhere near the edge
@@ -326,7 +339,8 @@ def count_edges_through(x, edges, y, triangles, origin, dims, cell, starts, entr
         p0, p1 = edges[k, 0], edges[k, 1]
         px, py, pz = x[p0, 0], x[p0, 1], x[p0, 2]
         qx, qy, qz = x[p1, 0], x[p1, 1], x[p1, 2]
-        for m in range(_near_segment(px, py, pz, qx, qy, qz, origin, dims, cell, starts, entries, stamp, k, found)):
+        for m in range(_near_segment(px, py, pz, qx, qy, qz, 0.0, origin, dims, cell, starts, entries, stamp, k, found,
+                                     False)):
             a, b, c = triangles[found[m], 0], triangles[found[m], 1], triangles[found[m], 2]
             if segment_misses_triangle_box(y, a, b, c, px, py, pz, qx, qy, qz):
                 continue
@@ -338,7 +352,8 @@ def count_edges_through(x, edges, y, triangles, origin, dims, cell, starts, entr
 
 class InnerSurface:
     """An inner garment's triangles at its current positions, binned for ``separate`` and
-    ``count_edges_through``. ``positions`` (M, 3) m, ``triangles`` (T, 3); ``reach`` m (the grid's pad)."""
+    ``count_edges_through``. ``positions`` (M, 3) m, ``triangles`` (T, 3); ``reach`` m (how near a point
+    looks for a triangle to be over, ``separate``'s pass 2)."""
 
     def __init__(self, positions: np.ndarray, triangles: np.ndarray, reach: float):
         self.positions = np.ascontiguousarray(positions, dtype=np.float64)
@@ -348,12 +363,11 @@ class InnerSurface:
         p = self.positions[self.triangles]
         # (T,) m: each triangle's farthest corner from its centroid
         self.radii = np.ascontiguousarray(np.linalg.norm(p - p.mean(axis=1, keepdims=True), axis=2).max(axis=1))
-        # a triangle sits in every cell its box grown by the reach touches, so a point's own cell holds what is
-        # near it whatever the cell's size: a typical triangle's, so a cell holds few
-        self.cell = 2.0 * float(np.median(self.radii)) + reach
+        # a typical triangle's size: a triangle sits in a few cells and an edge's box, grown by the thickness,
+        # meets a few tens of triangles (bins grown by the reach made each edge meet a hundred)
+        self.cell = CELL_PER_TRIANGLE * float(np.median(self.radii))
         self.reach = reach
-        self.origin, self.dims, self.starts, self.entries = build_grid(self.positions, self.triangles, reach,
-                                                                       self.cell)
+        self.origin, self.dims, self.starts, self.entries = build_grid(self.positions, self.triangles, self.cell)
 
     def separate(self, x: np.ndarray, v: np.ndarray, movable: np.ndarray, edges: np.ndarray, thickness: float,
                  tracked: np.ndarray, x_prev: np.ndarray | None = None) -> int:
