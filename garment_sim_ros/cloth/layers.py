@@ -4,7 +4,8 @@ After the body volumes (each garment's own frame step; ``dressing.DressedCharact
 frame, see there), every outer garment is kept on the outside of every inner garment's surface,
 ``thickness`` off it (``params.layer_thickness``), in four passes over the outer garment, with the
 inner garment's triangles (outward normals: counter-clockwise seen from outside) binned into a uniform
-grid (the broad phase: each triangle in every cell its box grown by ``reach`` touches):
+grid (the broad phase: each triangle in every cell its box touches; a point or edge meets the triangles of
+the cells its box, grown by how near it looks, touches):
 
 1. path: a point whose motion over the frame (``x_prev`` -> ``x``) went through an inner triangle from
    its outer side is put back on that side, at the crossing;
@@ -37,20 +38,21 @@ from ..collision.crossing import segment_crosses_triangle, segment_misses_triang
 
 REACH_M = 0.05  # m: an outer point this close over an inner garment's triangle is checked against it
 _SETTLED = 1e-6  # m: a point this close to the thickness is where it belongs (no sweep for rounding)
-SWEEPS = 3  # separate's passes run again while they move a point, at most this many times
+SWEEPS = 3  # separate's passes run at most this many times (again while they push a point)
+CELL_PER_TRIANGLE = 1.5  # the grid's cell, in a typical inner triangle's radii (centroid to farthest corner)
 _TRACK_DEPTH = 0.05  # m: a point this far behind the triangle it was over has not been pushed through it
 
 
 @njit(cache=True)
-def build_grid(y, triangles, pad, cell):
+def build_grid(y, triangles, cell):
     """Triangles of points ``y`` (M, 3) binned into cubic cells of ``cell`` m, each in every cell its box
-    grown by ``pad`` m touches. Returns (origin (3,) m, dims (3,) int, starts (C+1,), entries) with cell
-    ``(i * dims[1] + j) * dims[2] + k`` holding ``entries[starts[key]:starts[key + 1]]``."""
+    touches (a counting sort: count, prefix sum, fill). Returns (origin (3,) m, dims (3,) int, starts (C+1,),
+    entries) with cell ``(i * dims[1] + j) * dims[2] + k`` holding ``entries[starts[key]:starts[key + 1]]``."""
     lo = np.empty(3)
     hi = np.empty(3)
     for k in range(3):
-        lo[k] = y[:, k].min() - pad - 1e-6
-        hi[k] = y[:, k].max() + pad + 1e-6
+        lo[k] = y[:, k].min() - 1e-6
+        hi[k] = y[:, k].max() + 1e-6
     dims = np.empty(3, dtype=np.int64)
     for k in range(3):
         dims[k] = int((hi[k] - lo[k]) / cell) + 1
@@ -65,12 +67,12 @@ def build_grid(y, triangles, pad, cell):
             fill = starts[:-1].copy()
         for t in range(triangles.shape[0]):
             a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-            i0 = int((min(y[a, 0], y[b, 0], y[c, 0]) - pad - lo[0]) / cell)
-            i1 = int((max(y[a, 0], y[b, 0], y[c, 0]) + pad - lo[0]) / cell)
-            j0 = int((min(y[a, 1], y[b, 1], y[c, 1]) - pad - lo[1]) / cell)
-            j1 = int((max(y[a, 1], y[b, 1], y[c, 1]) + pad - lo[1]) / cell)
-            k0 = int((min(y[a, 2], y[b, 2], y[c, 2]) - pad - lo[2]) / cell)
-            k1 = int((max(y[a, 2], y[b, 2], y[c, 2]) + pad - lo[2]) / cell)
+            i0 = int((min(y[a, 0], y[b, 0], y[c, 0]) - lo[0]) / cell)
+            i1 = int((max(y[a, 0], y[b, 0], y[c, 0]) - lo[0]) / cell)
+            j0 = int((min(y[a, 1], y[b, 1], y[c, 1]) - lo[1]) / cell)
+            j1 = int((max(y[a, 1], y[b, 1], y[c, 1]) - lo[1]) / cell)
+            k0 = int((min(y[a, 2], y[b, 2], y[c, 2]) - lo[2]) / cell)
+            k1 = int((max(y[a, 2], y[b, 2], y[c, 2]) - lo[2]) / cell)
             for i in range(max(i0, 0), min(i1, dims[0] - 1) + 1):
                 for j in range(max(j0, 0), min(j1, dims[1] - 1) + 1):
                     for k in range(max(k0, 0), min(k1, dims[2] - 1) + 1):
@@ -105,13 +107,15 @@ def _cell_range(lo_p, hi_p, origin, dims, cell, axis):
 
 
 @njit(cache=True, inline="always")
-def _near_segment(px, py, pz, qx, qy, qz, origin, dims, cell, starts, entries, stamp, query, found):
-    """The triangles binned in the cells the box of segment p -> q touches, each once, written to ``found``
-    (T,); returns how many. ``stamp`` (T,) holds the last query that found each triangle; ``query`` is new."""
+def _near_box(lox, loy, loz, hix, hiy, hiz, origin, dims, cell, starts, entries, stamp, query, found, ordered):
+    """The triangles binned in the cells the box ``lo`` .. ``hi`` touches, each once, written to ``found``
+    (T,); returns how many. ``stamp`` (T,) holds the last query that found each triangle; ``query`` is new.
+    ``ordered``: in increasing order, so that pushes made one after another (the edge passes) do not depend
+    on the grid's cells."""
     count = 0
-    i0, i1 = _cell_range(min(px, qx), max(px, qx), origin, dims, cell, 0)
-    j0, j1 = _cell_range(min(py, qy), max(py, qy), origin, dims, cell, 1)
-    k0, k1 = _cell_range(min(pz, qz), max(pz, qz), origin, dims, cell, 2)
+    i0, i1 = _cell_range(lox, hix, origin, dims, cell, 0)
+    j0, j1 = _cell_range(loy, hiy, origin, dims, cell, 1)
+    k0, k1 = _cell_range(loz, hiz, origin, dims, cell, 2)
     for ci in range(i0, i1):
         for cj in range(j0, j1):
             for ck in range(k0, k1):
@@ -120,9 +124,21 @@ def _near_segment(px, py, pz, qx, qy, qz, origin, dims, cell, starts, entries, s
                     t = entries[e]
                     if stamp[t] != query:
                         stamp[t] = query
-                        found[count] = t
+                        # insertion: an edge's box finds a few tens of triangles
+                        m = count
+                        while ordered and m > 0 and found[m - 1] > t:
+                            found[m] = found[m - 1]
+                            m -= 1
+                        found[m] = t
                         count += 1
     return count
+
+
+@njit(cache=True, inline="always")
+def _near_segment(px, py, pz, qx, qy, qz, pad, origin, dims, cell, starts, entries, stamp, query, found, ordered):
+    """``_near_box`` for the box of segment p -> q grown by ``pad`` m."""
+    return _near_box(min(px, qx) - pad, min(py, qy) - pad, min(pz, qz) - pad, max(px, qx) + pad, max(py, qy) + pad,
+                     max(pz, qz) + pad, origin, dims, cell, starts, entries, stamp, query, found, ordered)
 
 
 @njit(cache=True, inline="always")
@@ -145,8 +161,10 @@ def _height(x, i, y, a, normals, t):
 
 
 @njit(cache=True, inline="always")
-def _push(x, v, i, normals, t, distance):
-    """Move point i by ``distance`` along triangle t's normal and take away its velocity into the surface."""
+def _push(x, v, pushed, i, normals, t, distance):
+    """Move point i by ``distance`` along triangle t's normal and take away its velocity into the surface;
+    ``pushed[i]`` set."""
+    pushed[i] = True
     nx, ny, nz = normals[t, 0], normals[t, 1], normals[t, 2]
     x[i, 0] += distance * nx
     x[i, 1] += distance * ny
@@ -184,88 +202,101 @@ def _closest_between_segments(x, p0, p1, y, q0, q1):
 
 @njit(cache=True)
 def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, radii, thickness, reach, origin, dims,
-             cell, starts, entries, tracked):
+             cell, starts, entries, tracked, sweeps):
     """Keep the outer garment's points ``x`` (N, 3) (velocities ``v``, both changed in place; ``movable``
     (N,) bool) ``thickness`` outside the inner garment's triangles (T, 3) of ``y`` (M, 3), unit ``normals``
     (T, 3) and ``radii`` (T,) (farthest corner from the centroid, m); see the module docstring. ``x_prev``
     (N, 3) the points at the frame's start (used when ``use_path``), ``edges`` (E, 2) the outer garment's
     structural edges, ``tracked`` (N,) the inner triangle each point was over at the last call (-1: none),
-    updated. Returns how many pushes were made."""
-    moved = 0
+    updated. Passes 2 to 4 run again while they push a point, up to ``sweeps`` times in all (a push out of
+    one triangle can put a point into its neighbour in a crease); a sweep after the first looks only at the
+    points the one before pushed and their edges: the others are where they were when they were last
+    looked at and nothing pushed them then, so they would not be pushed now. Returns how many pushes were
+    made."""
+    total = 0
     n = x.shape[0]
     stamp = np.full(triangles.shape[0], -1, dtype=np.int64)
     found = np.empty(triangles.shape[0], dtype=np.int64)
     query = 0
-    # 1. paths through a triangle from its outer side
-    if use_path:
+    look = np.ones(n, dtype=np.bool_)  # (N,) the points this sweep looks at
+    pushed = np.zeros(n, dtype=np.bool_)  # (N,) the points this sweep pushed
+    for sweep in range(sweeps):
+        moved = 0
+        pushed[:] = False
+        # 1. paths through a triangle from its outer side (the first sweep only)
+        if use_path and sweep == 0:
+            for i in range(n):
+                if not movable[i]:
+                    continue
+                px, py, pz = x_prev[i, 0], x_prev[i, 1], x_prev[i, 2]
+                dx, dy, dz = x[i, 0] - px, x[i, 1] - py, x[i, 2] - pz
+                best_s, best_t = 2.0, -1
+                query += 1
+                for m in range(_near_segment(px, py, pz, x[i, 0], x[i, 1], x[i, 2], 0.0, origin, dims, cell, starts,
+                                             entries, stamp, query, found, False)):
+                    t = found[m]
+                    # from the outer side to the inner side only
+                    if dx * normals[t, 0] + dy * normals[t, 1] + dz * normals[t, 2] >= 0.0:
+                        continue
+                    a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+                    if segment_misses_triangle_box(y, a, b, c, px, py, pz, x[i, 0], x[i, 1], x[i, 2]):
+                        continue
+                    hit, s, _, _ = segment_crosses_triangle(px, py, pz, dx, dy, dz, y, a, b, c)
+                    if hit and s < best_s:
+                        best_s, best_t = s, t
+                if best_t >= 0:
+                    d = _height(x, i, y, triangles[best_t, 0], normals, best_t)  # < 0: how far through
+                    _push(x, v, pushed, i, normals, best_t, thickness - d)
+                    moved += 1
+        # 2. point-triangle proximity
         for i in range(n):
-            if not movable[i]:
+            if not (movable[i] and look[i]):
                 continue
-            px, py, pz = x_prev[i, 0], x_prev[i, 1], x_prev[i, 2]
-            dx, dy, dz = x[i, 0] - px, x[i, 1] - py, x[i, 2] - pz
-            best_s, best_t = 2.0, -1
-            query += 1
-            for m in range(_near_segment(px, py, pz, x[i, 0], x[i, 1], x[i, 2], origin, dims, cell, starts, entries,
-                                         stamp, query, found)):
-                t = found[m]
-                # from the outer side to the inner side only
-                if dx * normals[t, 0] + dy * normals[t, 1] + dz * normals[t, 2] >= 0.0:
-                    continue
+            t = tracked[i]
+            if t >= 0:
                 a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-                if segment_misses_triangle_box(y, a, b, c, px, py, pz, x[i, 0], x[i, 1], x[i, 2]):
-                    continue
-                hit, s, _, _ = segment_crosses_triangle(px, py, pz, dx, dy, dz, y, a, b, c)
-                if hit and s < best_s:
-                    best_s, best_t = s, t
-            if best_t >= 0:
-                d = _height(x, i, y, triangles[best_t, 0], normals, best_t)  # < 0: how far through
-                _push(x, v, i, normals, best_t, thickness - d)
+                d = _height(x, i, y, a, normals, t)
+                # laterally within 1.5 times the triangle's radius of its centroid (it may have slid off its edge)
+                gx = x[i, 0] - (y[a, 0] + y[b, 0] + y[c, 0]) / 3.0
+                gy = x[i, 1] - (y[a, 1] + y[b, 1] + y[c, 1]) / 3.0
+                gz = x[i, 2] - (y[a, 2] + y[b, 2] + y[c, 2]) / 3.0
+                lateral2 = gx * gx + gy * gy + gz * gz - d * d
+                if -_TRACK_DEPTH < d < thickness - _SETTLED and lateral2 < 2.25 * radii[t] * radii[t]:
+                    _push(x, v, pushed, i, normals, t, thickness - d)
+                    moved += 1
+            tracked[i] = -1
+            px, py, pz = x[i, 0], x[i, 1], x[i, 2]
+            best_d, best_t = reach, -1
+            query += 1
+            for m in range(_near_segment(px, py, pz, px, py, pz, reach, origin, dims, cell, starts, entries, stamp,
+                                         query, found, False)):
+                t = found[m]
+                a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+                d = _height(x, i, y, a, normals, t)
+                if abs(d) < abs(best_d) and _over(px, py, pz, y, a, b, c, normals[t, 0], normals[t, 1], normals[t, 2]):
+                    best_d, best_t = d, t
+            if best_t >= 0 and best_d < thickness - _SETTLED:
+                _push(x, v, pushed, i, normals, best_t, thickness - best_d)
                 moved += 1
-    # 2. point-triangle proximity
-    for i in range(n):
-        if not movable[i]:
-            continue
-        t = tracked[i]
-        if t >= 0:
-            a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-            d = _height(x, i, y, a, normals, t)
-            # laterally within 1.5 times the triangle's radius of its centroid (it may have slid off its edge a little)
-            gx = x[i, 0] - (y[a, 0] + y[b, 0] + y[c, 0]) / 3.0
-            gy = x[i, 1] - (y[a, 1] + y[b, 1] + y[c, 1]) / 3.0
-            gz = x[i, 2] - (y[a, 2] + y[b, 2] + y[c, 2]) / 3.0
-            lateral2 = gx * gx + gy * gy + gz * gz - d * d
-            if -_TRACK_DEPTH < d < thickness - _SETTLED and lateral2 < 2.25 * radii[t] * radii[t]:
-                _push(x, v, i, normals, t, thickness - d)
-                moved += 1
-        tracked[i] = -1
-        px, py, pz = x[i, 0], x[i, 1], x[i, 2]
-        ci, cj, ck = (int(math.floor((px - origin[0]) / cell)), int(math.floor((py - origin[1]) / cell)),
-                      int(math.floor((pz - origin[2]) / cell)))
-        if ci < 0 or cj < 0 or ck < 0 or ci >= dims[0] or cj >= dims[1] or ck >= dims[2]:
-            continue
-        key = (ci * dims[1] + cj) * dims[2] + ck
-        best_d, best_t = reach, -1
-        for e in range(starts[key], starts[key + 1]):
-            t = entries[e]
-            a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-            d = _height(x, i, y, a, normals, t)
-            if abs(d) < abs(best_d) and _over(px, py, pz, y, a, b, c, normals[t, 0], normals[t, 1], normals[t, 2]):
-                best_d, best_t = d, t
-        if best_t >= 0 and best_d < thickness - _SETTLED:
-            _push(x, v, i, normals, best_t, thickness - best_d)
-            moved += 1
-        tracked[i] = best_t
-    # 3. edge-edge proximity and 4. edges through a triangle
-    for k in range(edges.shape[0]):
-        p0, p1 = edges[k, 0], edges[k, 1]
-        query += 1
-        for m in range(_near_segment(x[p0, 0], x[p0, 1], x[p0, 2], x[p1, 0], x[p1, 1], x[p1, 2], origin, dims, cell,
-                                     starts, entries, stamp, query, found)):
-            t = found[m]
-            if _apart(x, p0, p1, y, triangles, t, thickness):
-                continue  # most triangles of a cell are nowhere near the edge
-            moved += _edge_against_triangle(x, v, movable, p0, p1, y, triangles, normals, t, thickness, reach)
-    return moved
+            tracked[i] = best_t
+        # 3. edge-edge proximity and 4. edges through a triangle
+        for k in range(edges.shape[0]):
+            p0, p1 = edges[k, 0], edges[k, 1]
+            if not (look[p0] or look[p1]):
+                continue
+            query += 1
+            for m in range(_near_segment(x[p0, 0], x[p0, 1], x[p0, 2], x[p1, 0], x[p1, 1], x[p1, 2], thickness, origin,
+                                         dims, cell, starts, entries, stamp, query, found, True)):
+                t = found[m]
+                if _apart(x, p0, p1, y, triangles, t, thickness):
+                    continue  # most triangles of a cell are nowhere near the edge
+                moved += _edge_against_triangle(x, v, pushed, movable, p0, p1, y, triangles, normals, t, thickness,
+                                                reach)
+        total += moved
+        if moved == 0:
+            break
+        look[:] = pushed
+    return total
 
 
 @njit(cache=True, inline="always")
@@ -280,7 +311,7 @@ def _apart(x, p0, p1, y, triangles, t, pad):
 
 
 @njit(cache=True, inline="always")
-def _edge_against_triangle(x, v, movable, p0, p1, y, triangles, normals, t, thickness, reach):
+def _edge_against_triangle(x, v, pushed, movable, p0, p1, y, triangles, normals, t, thickness, reach):
     """Passes 3 and 4 of ``separate`` for outer edge (p0, p1) and inner triangle t; returns the pushes made."""
     a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
     moved = 0
@@ -297,9 +328,9 @@ def _edge_against_triangle(x, v, movable, p0, p1, y, triangles, normals, t, thic
             continue
         share = (thickness - d) / (w0 * (1.0 - s) + w1 * s)  # the closest point moves thickness - d
         if w0 > 0.0:
-            _push(x, v, p0, normals, t, w0 * share)
+            _push(x, v, pushed, p0, normals, t, w0 * share)
         if w1 > 0.0:
-            _push(x, v, p1, normals, t, w1 * share)
+            _push(x, v, pushed, p1, normals, t, w1 * share)
         moved += 1
     hit = segment_crosses_triangle(x[p0, 0], x[p0, 1], x[p0, 2], x[p1, 0] - x[p0, 0], x[p1, 1] - x[p0, 1],
                                    x[p1, 2] - x[p0, 2], y, a, b, c)[0]
@@ -310,7 +341,7 @@ def _edge_against_triangle(x, v, movable, p0, p1, y, triangles, normals, t, thic
     # a shallow crossing only: an edge straddling a whole fold or tube has both ends outside it, and pushing
     # one across would make it worse
     if movable[inner] and d >= -_TRACK_DEPTH:
-        _push(x, v, inner, normals, t, thickness - d)
+        _push(x, v, pushed, inner, normals, t, thickness - d)
         moved += 1
     return moved
 
@@ -326,7 +357,8 @@ def count_edges_through(x, edges, y, triangles, origin, dims, cell, starts, entr
         p0, p1 = edges[k, 0], edges[k, 1]
         px, py, pz = x[p0, 0], x[p0, 1], x[p0, 2]
         qx, qy, qz = x[p1, 0], x[p1, 1], x[p1, 2]
-        for m in range(_near_segment(px, py, pz, qx, qy, qz, origin, dims, cell, starts, entries, stamp, k, found)):
+        for m in range(_near_segment(px, py, pz, qx, qy, qz, 0.0, origin, dims, cell, starts, entries, stamp, k, found,
+                                     False)):
             a, b, c = triangles[found[m], 0], triangles[found[m], 1], triangles[found[m], 2]
             if segment_misses_triangle_box(y, a, b, c, px, py, pz, qx, qy, qz):
                 continue
@@ -338,7 +370,8 @@ def count_edges_through(x, edges, y, triangles, origin, dims, cell, starts, entr
 
 class InnerSurface:
     """An inner garment's triangles at its current positions, binned for ``separate`` and
-    ``count_edges_through``. ``positions`` (M, 3) m, ``triangles`` (T, 3); ``reach`` m (the grid's pad)."""
+    ``count_edges_through``. ``positions`` (M, 3) m, ``triangles`` (T, 3); ``reach`` m (how near a point
+    looks for a triangle to be over, ``separate``'s pass 2)."""
 
     def __init__(self, positions: np.ndarray, triangles: np.ndarray, reach: float):
         self.positions = np.ascontiguousarray(positions, dtype=np.float64)
@@ -348,29 +381,21 @@ class InnerSurface:
         p = self.positions[self.triangles]
         # (T,) m: each triangle's farthest corner from its centroid
         self.radii = np.ascontiguousarray(np.linalg.norm(p - p.mean(axis=1, keepdims=True), axis=2).max(axis=1))
-        # a triangle sits in every cell its box grown by the reach touches, so a point's own cell holds what is
-        # near it whatever the cell's size: a typical triangle's, so a cell holds few
-        self.cell = 2.0 * float(np.median(self.radii)) + reach
+        # a typical triangle's size: a triangle sits in a few cells and an edge's box, grown by the thickness,
+        # meets a few tens of triangles (bins grown by the reach made each edge meet a hundred)
+        self.cell = CELL_PER_TRIANGLE * float(np.median(self.radii))
         self.reach = reach
-        self.origin, self.dims, self.starts, self.entries = build_grid(self.positions, self.triangles, reach,
-                                                                       self.cell)
+        self.origin, self.dims, self.starts, self.entries = build_grid(self.positions, self.triangles, self.cell)
 
     def separate(self, x: np.ndarray, v: np.ndarray, movable: np.ndarray, edges: np.ndarray, thickness: float,
                  tracked: np.ndarray, x_prev: np.ndarray | None = None) -> int:
         """``x``, ``v`` (N, 3) float64 changed in place; ``movable`` (N,) bool; ``edges`` (E, 2) the outer
         garment's; ``tracked`` (N,) int64, updated; ``x_prev`` (N, 3) the frame's start (None: no path
         pass). Returns how many pushes were made."""
-        edges = np.ascontiguousarray(edges, dtype=np.int64)
-        pushes = 0
-        for sweep in range(SWEEPS):  # a push out of one triangle can put a point into its neighbour in a crease
-            moved = int(separate(x, v, movable, x if x_prev is None else x_prev, sweep == 0 and x_prev is not None,
-                                 edges, self.positions, self.triangles, self.normals, self.radii, float(thickness),
-                                 self.reach,
-                                 self.origin, self.dims, self.cell, self.starts, self.entries, tracked))
-            pushes += moved
-            if moved == 0:
-                break
-        return pushes
+        return int(separate(x, v, movable, x if x_prev is None else x_prev, x_prev is not None,
+                            np.ascontiguousarray(edges, dtype=np.int64), self.positions, self.triangles, self.normals,
+                            self.radii, float(thickness), self.reach, self.origin, self.dims, self.cell, self.starts,
+                            self.entries, tracked, SWEEPS))
 
     def edges_through(self, x: np.ndarray, edges: np.ndarray) -> int:
         """How many edges (E, 2) of points ``x`` (N, 3) cross one of these triangles."""
