@@ -53,11 +53,12 @@ from .cloth.kernels import keep_where_inside
 from .cloth.layers import REACH_M, InnerSurface
 from .cloth.mesh_check import GarmentMeshError
 from .cloth.model import build_cloth_model
+from .cloth.motion_constraints import SkinBinding
 from .cloth.solver import FrameInput, FrameReport, GarmentSolver
 from .cloth.spec import GarmentSpec, build_mesh, resolve_garment
 from .collision.collider import Collider
 from .params import SolverParams
-from .quality import GarmentMeter, free_point_depth
+from .quality import TARGETS, GarmentMeter, free_point_depth
 from .transforms import compose, inverse, quat_slerp, yaw_quat
 
 SAME_BAND_M = 0.02  # an outer garment's attachment this close to an inner one's is carried as that one is
@@ -122,6 +123,13 @@ class DressedCharacter:
         # each solver's frames as rows of ``self.frames``
         self._rows = {id(s): [frames.index(f) for f in s.frames] for s in self.solvers}
         self._previous: tuple[SkeletonPose, RootMotion, float] | None = None
+        # The guard's recoveries (``_recover``), per row of ``self.solvers``: its last clean configuration
+        # (positions (N, 3) in the root frame, m; the root's position and yaw; its frames' poses), the rows
+        # carried instead of simulated (row -> body time of the next re-dress tried, s; the skin binding)
+        # and when each garment was last dressed, s.
+        self._clean: dict[int, tuple] = {}
+        self._carried: dict[int, tuple[float, SkinBinding]] = {}
+        self._dressed_at: dict[int, float] = {}
 
     @property
     def garment_names(self) -> list[str]:
@@ -237,6 +245,11 @@ class DressedCharacter:
         from its rest pose to ``pose`` over ``settle_s`` while the root stands still, so the garments
         start fitted and collision-free whatever the first pose is."""
         self._put_on(self.solvers, pose, time_s, settle_s, frame_s)
+        self._carried.clear()
+        position, yaw = root_frame(pose, self.joint_map)
+        for row in range(len(self.solvers)):
+            self._keep_clean(row, pose, position, yaw)
+            self._dressed_at[row] = time_s
         if motion is None:
             position, yaw = root_frame(pose, self.joint_map)
             still = np.zeros(3)
@@ -244,7 +257,9 @@ class DressedCharacter:
         self._previous = (pose, motion, time_s)
 
     def _put_on(self, solvers: Sequence[GarmentSolver], pose: SkeletonPose, time_s: float,
-                settle_s: float, frame_s: float, hold_frames: int = 60) -> None:
+                settle_s: float, frame_s: float, hold_frames: int = 60) -> list[bool]:
+        """Dress ``solvers`` through the canonical pose onto ``pose`` (see ``dress``); per solver, whether
+        its guard fired on the way."""
         root_position, root_yaw = root_frame(pose, self.joint_map)
         rest_t, rest_q = local_transforms(_in_root_frame(self.body.rest_pose, self.joint_map))
         pose_t, pose_q = local_transforms(_in_root_frame(pose, self.joint_map))
@@ -273,16 +288,17 @@ class DressedCharacter:
         t = start
         previous = (fp, fq)
         layered = self._layered_rows(solvers)
+        fired = [False] * len(solvers)
         for k in range(steps + hold_frames):
             current = blended(min(1.0, (k + 1) / steps))
             before = {row: self.solvers[row].state.positions.copy() for row in layered}
-            for solver, sel in zip(solvers, selections):
-                solver.advance(FrameInput(
+            for i, (solver, sel) in enumerate(zip(solvers, selections)):
+                fired[i] |= bool(solver.advance(FrameInput(
                     t0=t, t1=t + frame_s, root_position0=root_position, root_yaw0=root_yaw,
                     root_position1=root_position, root_yaw1=root_yaw, root_velocity=still, root_acceleration=still,
                     yaw_rate=0.0, yaw_acceleration=0.0, frame_positions0=previous[0][sel],
                     frame_rotations0=previous[1][sel], frame_positions1=current[0][sel],
-                    frame_rotations1=current[1][sel]))
+                    frame_rotations1=current[1][sel])).recovery)
             self._separate_layers(layered, before)
             previous = current
             t += frame_s
@@ -290,6 +306,13 @@ class DressedCharacter:
             solver.set_params(params)
             solver.state.time = time_s
             solver.state.lag = 0.0
+        return fired
+
+    # A runaway within this long of the garment's last dressing is the same pose still pinching it: carried
+    # without a re-dress (each re-dress onto the CC cartwheel's raised thigh ran away again within frames,
+    # 30 times in 3 s), s. A carried garment tries a re-dress every RETRY_S of body time, s.
+    REFIRE_S = 0.25
+    RETRY_S = 0.1
 
     def step(self, pose: SkeletonPose, motion: RootMotion, time_s: float, measure: bool = True) -> list[FrameReport]:
         """Advance every garment from the previous pose to ``pose`` at ``time_s``; ``measure``: fill the
@@ -299,24 +322,88 @@ class DressedCharacter:
         previous_pose, start_motion, previous_time = self._previous
         p0, q0 = self._frame_poses(previous_pose, self.frames)
         p1, q1 = self._frame_poses(pose, self.frames)
-        reports = []
-        layered = self._layered_rows(self.solvers)
+        reports: list[FrameReport | None] = []
+        layered = [row for row in self._layered_rows(self.solvers) if row not in self._carried]
         before = {row: self.solvers[row].state.positions.copy() for row in layered}
-        for solver in self.solvers:
+        for row, solver in enumerate(self.solvers):
+            if row in self._carried:
+                reports.append(None)
+                continue
             sel = self._rows[id(solver)]
             frame = FrameInput.between(t0=previous_time, motion0=start_motion, poses0=(p0[sel], q0[sel]),
                                        t1=time_s, motion1=motion, poses1=(p1[sel], q1[sel]))
             reports.append(solver.advance(frame))
         self._separate_layers(layered, before)
-        # The guard re-fitted a garment that ran away (cloth.solver): its rest shape, moved onto the
-        # new pose, may cross the limbs; put it on again from the rest pose instead, quickly.
-        refitted = [s for s, r in zip(self.solvers, reports) if r.recovery == "refitted"]
-        if refitted:
-            self._put_on(refitted, pose, time_s, settle_s=0.25, frame_s=1.0 / 60.0, hold_frames=15)
+        self._recover(reports, pose, motion, time_s)
         self._previous = (pose, motion, time_s)
         if measure:
             self.measure(reports, pose)
+            for row, report in enumerate(reports):
+                if self._is_clean(report):
+                    self._keep_clean(row, pose, motion.position, motion.yaw)
         return reports
+
+    def _recover(self, reports: list[FrameReport | None], pose: SkeletonPose, motion: RootMotion,
+                 time_s: float) -> None:
+        """The guard's recoveries, after the frame's steps (``reports``: None for a carried garment, filled here).
+
+        A garment that ran away (``recovery == "refitted"``: the solver put its rest shape on its attached
+        points) is dressed again through the canonical pose onto this pose, with the collision handling of
+        the first dressing (0.25 s of blending), and kept only if clean (``_is_clean``, its guard quiet on
+        the way too). Otherwise, or when it ran away within ``REFIRE_S`` of its last dressing (the same pose
+        pinching it again), it is carried rigidly with the body: its last clean configuration (the last
+        measured frame clean on (a)-(c), or its last dressing) skinned to the nearest volumes and pushed out
+        of the others (``cloth.solver.GarmentSolver.carry``), reported ``carried``, until a re-dress tried
+        every ``RETRY_S`` comes out clean. So a recovery never loops on one pose, and the garment never ends
+        worse than its last clean configuration moved with the body."""
+        for row, report in enumerate(reports):
+            solver = self.solvers[row]
+            if report is not None and report.recovery == "refitted":
+                recent = time_s - self._dressed_at.get(row, -np.inf) < self.REFIRE_S
+                if (recent or not self._redress(row, pose, time_s)) and row in self._clean:
+                    self._carried[row] = (time_s + self.RETRY_S, solver.binding(*self._clean[row]))
+            elif report is None:
+                retry, binding = self._carried[row]
+                if time_s >= retry and self._redress(row, pose, time_s):
+                    del self._carried[row]
+                    reports[row] = FrameReport()
+                elif time_s >= retry:
+                    self._carried[row] = (time_s + self.RETRY_S, binding)
+            if row in self._carried:
+                carried = solver.carry(self._carried[row][1], motion.position, motion.yaw,
+                                       *self._frame_poses(pose, solver.frames), time_s)
+                carried.recovery = report.recovery if report is not None else ""
+                reports[row] = carried
+
+    def _redress(self, row: int, pose: SkeletonPose, time_s: float) -> bool:
+        """Dress garment ``row`` again onto ``pose`` (``_put_on``); whether it came out clean."""
+        solver = self.solvers[row]
+        if self._put_on([solver], pose, time_s, settle_s=0.25, frame_s=1.0 / 60.0, hold_frames=15)[0]:
+            return False
+        report = FrameReport()
+        position, yaw = root_frame(pose, self.joint_map)
+        volumes = self.body.volumes
+        self._meters[row].measure(report, solver, solver.world_positions(position, yaw), pose,
+                                  *volumes.world_poses(*self._frame_poses(pose, volumes.frames)))
+        if not self._is_clean(report):
+            return False
+        self._keep_clean(row, pose, position, yaw)
+        self._dressed_at[row] = time_s
+        return True
+
+    @staticmethod
+    def _is_clean(report: FrameReport) -> bool:
+        """Clean on (a)-(c): no free point deeper than ``Targets.depth_tolerance_m``, no limb bone through the
+        garment, every trouser leg round its leg; a step the guard let pass."""
+        return (not report.recovery and not report.carried and report.max_depth_m <= TARGETS.depth_tolerance_m
+                and not report.bones_through and not report.legs_off)
+
+    def _keep_clean(self, row: int, pose: SkeletonPose, root_position, root_yaw: float) -> None:
+        """Garment ``row`` as it is now, on ``pose`` (root at ``root_position``, ``root_yaw``: the frame its
+        state is in), is its last clean configuration: what it is carried with after a runaway."""
+        solver = self.solvers[row]
+        self._clean[row] = (solver.state.positions.copy(), root_position, root_yaw,
+                            *self._frame_poses(pose, solver.frames))
 
     @cached_property
     def _meters(self) -> list[GarmentMeter]:

@@ -387,3 +387,38 @@ def test_a_guard_recovery_dresses_through_the_canonical_pose_and_the_next_frame_
     report = character.step(source.pose(t), source.motion(t), t)[0]
     assert report.recovery == ""
     assert report.max_depth_m < 1e-3 and report.bones_through == 0 and report.legs_off == 0
+
+
+def test_a_runaway_the_pose_keeps_pinching_is_carried_not_redressed_again_and_again():
+    """Issue 11, items 5 and (e), on the CC cartwheel: the right thigh raised ~160 deg against the belly
+    throws the short skirt's front between the volumes until a spring passes ``RUNAWAY_STRETCH``. Re-dressed
+    onto that pose at every firing, it ran away again on the next frames (29 firings in 3 s, 146 mm deep);
+    now a garment whose re-dress is not clean, or that runs away again within ``REFIRE_S``, is carried
+    with the body from its last clean frame. The guard fires at most twice between 1 and 2 s; the carried
+    frames have no free point inside a volume and no spring near a runaway; the frame a re-dress comes out
+    clean and the simulated frame after it meet (a)-(c)."""
+    from garment_sim_ros.cloth.solver import GarmentSolver
+    from garment_sim_ros.dressing import make_character
+    from garment_sim_ros.params import preset
+
+    source = bvh_source(str(DATA / "cc_cmu_05_06_dance_cartwheel_pirouette.bvh"), loop=False)
+    character = make_character(source.rest_pose, source.joint_map, ["short_skirt"], preset("si"), 1.0,
+                               motion=source.fit_poses())
+    character.dress(source.pose(0.0), 0.0, source.motion(0.0))
+    reports = []
+    for k in range(1, 121):
+        t = k * FRAME
+        reports.append((t, character.step(source.pose(t), source.motion(t), t)[0]))
+    firings = [t for t, r in reports if r.recovery and 1.0 <= t <= 2.0]
+    assert 1 <= len(firings) <= 2, firings
+    carried = [r for _, r in reports if r.carried]
+    assert carried, "the cartwheel's pose did not allow a clean re-dress at once: the garment is carried"
+    for report in carried:
+        assert report.max_depth_m <= 1e-3
+        assert report.structural_stretch_max < GarmentSolver.RUNAWAY_STRETCH
+    clean = [(a, b) for (_, before), (_, a), (_, b) in zip(reports, reports[1:], reports[2:])
+             if before.carried and not a.carried]
+    assert clean, "a re-dress came out clean before 2 s"
+    for report in (r for pair in clean for r in pair):
+        assert not report.recovery and report.max_depth_m <= 1e-3 and report.bones_through == 0
+        assert report.legs_off == 0

@@ -229,7 +229,7 @@ def test_the_targets_table_judges_each_letter_and_asks_less_at_fast_playback():
 
 ROW_KEYS = {"clip", "garment", "speed", "fps", "frames", "bones_frames", "bones_max", "limb_tubes", "legs_off_frames",
             "deep_frames", "deep_share", "max_depth_mm", "structural_stretch_p99", "structural_stretch_max",
-            "shear_stretch_p99", "shear_stretch_max", "guard_firings", "targets", "passed", "wall_s"}
+            "shear_stretch_p99", "shear_stretch_max", "guard_firings", "carried_frames", "targets", "passed", "wall_s"}
 
 
 def test_evaluate_json_rows_and_summary_on_a_real_clip():

@@ -81,6 +81,9 @@ class FrameReport:
     # the step's guard (``GarmentSolver.advance``): "" (a good step), "restored" (the step went
     # non-finite: the last good state is back) or "refitted" (runaway stretch: the rest shape at the new pose)
     recovery: str = ""
+    # the garment was carried rigidly with the body this frame, not simulated: a runaway whose re-dress onto
+    # the pose was not clean (``DressedCharacter``); its last clean dressing skinned onto the pose
+    carried: bool = False
     # How well the garment stays on after the frame (``garment_sim_ros.quality``); filled by
     # ``DressedCharacter.step``, which has the pose (0 where the solver runs alone).
     max_depth_m: float = 0.0  # (a) deepest free point inside a body volume, m

@@ -234,6 +234,42 @@ class GarmentSolver:
             self.skin = SkinBinding(x, self.volumes, *self._local_volume_poses(root_position, root_yaw, frame_positions,
                                                                               frame_rotations))
 
+    CARRY_PASSES = 8  # ``carry``: length-correction passes, each with the collision handling, then as many without
+
+    def binding(self, positions, root_position, root_yaw, frame_positions, frame_rotations) -> SkinBinding:
+        """The garment at ``positions`` (N, 3) m, in the root frame of this pose, bound rigidly to the volumes
+        at it: ``carry`` puts it on another pose."""
+        return SkinBinding(positions, self.volumes,
+                           *self._local_volume_poses(root_position, root_yaw, frame_positions, frame_rotations))
+
+    def carry(self, binding: SkinBinding, root_position, root_yaw, frame_positions, frame_rotations,
+              time_s: float) -> FrameReport:
+        """Put the garment where ``binding`` skins it on this pose, its attached points on their segments,
+        at rest: no simulation (``DressedCharacter`` carries a garment it cannot dress cleanly this way).
+        The frame's report says ``carried``, with the stretch measured."""
+        poses = self._local_volume_poses(root_position, root_yaw, frame_positions, frame_rotations)
+        x, v = self.state.positions, self.state.velocities
+        x[...] = binding.positions(*poses)
+        x[self.model.attached] = self._attachment_targets(root_position, root_yaw, frame_positions, frame_rotations)
+        v[...] = 0.0
+        # Points skinned to different volumes part where the limbs turn against the trunk, and a point skinned
+        # to one volume can end inside another (a thigh raised into the belly): a few passes of the length
+        # correction, each followed by the collision handling with the volumes standing still, positions only
+        # (no velocity comes of them: what runs away in the simulation is Eq. 5-2 turning such moves into speed).
+        inv_mass = self.constants.inv_mass
+        self.collider.begin_frame(*poses, *poses)
+        for k in range(2 * self.CARRY_PASSES):
+            if k < self.CARRY_PASSES:
+                kernels.length_correction(x, inv_mass, self.model.springs, self.model.rest_lengths,
+                                          self._correct_count, self.params.limit_ratio)
+            self.collider.handle_all(x.copy(), x, v, inv_mass, 1.0 / 60.0, self.state.contacts)
+        v[...] = 0.0
+        self.state.time = time_s
+        self.state.lag = 0.0
+        report = FrameReport(carried=True)
+        self._measure_stretch(report)
+        return report
+
     def _new_contacts(self) -> np.ndarray:
         """An empty contact cache for ``ClothState.contacts`` (no column without volumes)."""
         if self.collider is None:

@@ -104,11 +104,12 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
     ``limb_tubes`` (the garment's trouser legs) and ``legs_off_frames``; ``deep_frames`` / ``deep_share``
     (frames with a free point deeper than ``Targets.depth_tolerance_m``) and ``max_depth_mm``;
     ``structural_stretch_p99`` / ``shear_stretch_p99`` (the worst frame's 99th percentile of length /
-    rest length) and ``..._max`` (the longest spring); ``guard_firings`` (frames);
+    rest length) and ``..._max`` (the longest spring); ``guard_firings`` (frames) and ``carried_frames`` (frames
+    a garment was carried rigidly after a runaway, ``DressedCharacter._recover``);
     ``targets`` (``quality.Targets.judge``), ``passed`` and ``wall_s``. An outfit's frame counts when any
     of its garments fails it; it adds ``layer_crossing_frames`` (frames with an outer garment's edge through
     an inner garment's triangle), ``layer_crossings_max`` (most such edges at once) and ``layers``: per
-    garment, inner first, its own figures (the keys above from ``bones_frames`` to ``guard_firings``).
+    garment, inner first, its own figures (the keys above from ``bones_frames`` to ``carried_frames``).
     ``after_dressing(character)`` is called once the garments are on (a test moves the cloth there)."""
     from ..body.sources import bvh_source
     from ..dressing import make_character
@@ -126,6 +127,7 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
     worn = len(character.solvers)
     depth, bones = np.zeros((frames, worn)), np.zeros((frames, worn), dtype=np.int64)
     legs_off, guard = np.zeros((frames, worn), dtype=np.int64), np.zeros((frames, worn), dtype=bool)
+    carried = np.zeros((frames, worn), dtype=bool)
     crossings = np.zeros((frames, worn), dtype=np.int64)
     stretch = np.zeros((frames, worn, 4))  # structural p99, max, shear p99, max
     steps = simulate_frames(source, character, np.arange(frames + 1) / run.fps)
@@ -138,6 +140,7 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
             depth[k - 1, g], bones[k - 1, g], legs_off[k - 1, g] = (report.max_depth_m, report.bones_through,
                                                                     report.legs_off)
             guard[k - 1, g], crossings[k - 1, g] = bool(report.recovery), report.layer_crossings
+            carried[k - 1, g] = report.carried
             stretch[k - 1, g] = (report.structural_stretch_p99, report.structural_stretch_max,
                                  report.shear_stretch_p99, report.shear_stretch_max)
 
@@ -155,6 +158,7 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
             "structural_stretch_p99": float(worst[0]), "structural_stretch_max": float(worst[1]),
             "shear_stretch_p99": float(worst[2]), "shear_stretch_max": float(worst[3]),
             "guard_firings": int(np.count_nonzero(np.any(guard[:, garments], axis=1))),
+            "carried_frames": int(np.count_nonzero(np.any(carried[:, garments], axis=1))),
         }
 
     row = {"clip": Path(run.clip).stem, "garment": "+".join(character.garment_names), "speed": run.speed,

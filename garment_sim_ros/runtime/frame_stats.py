@@ -29,7 +29,8 @@ class FrameStats:
     def __init__(self) -> None:
         self.lag_s = 0.0  # the garments' lag behind the skeleton at the last frame (the largest)
         self.total_frames = 0
-        self.recoveries: Counter[str] = Counter()  # solver guard events since start, by FrameReport.recovery
+        # solver guard events since start, by FrameReport.recovery, and garment frames carried after them
+        self.recoveries: Counter[str] = Counter()
         self._start()
 
     def _start(self) -> None:
@@ -81,6 +82,7 @@ class FrameStats:
             return
         self._stepped += 1
         self.recoveries.update(r.recovery for r in reports if r.recovery)
+        self.recoveries.update(["carried"] * sum(r.carried for r in reports))  # garment frames carried after one
         self._substeps += max(r.substeps for r in reports)
         self._stages["integration"] += sum(r.integration_s for r in reports)
         self._stages["correction"] += sum(r.correction_s for r in reports)
