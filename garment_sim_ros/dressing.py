@@ -50,7 +50,7 @@ from .body.root import root_frame
 from .body.skeleton import SkeletonPose, forward_kinematics
 from .cloth.garments import GarmentMesh
 from .cloth.kernels import keep_where_inside
-from .cloth.layers import REACH_M, InnerSurface
+from .cloth.layers import REACH_M, InnerSurface, carried_like
 from .cloth.mesh_check import GarmentMeshError
 from .cloth.model import build_cloth_model
 from .cloth.motion_constraints import SkinBinding
@@ -60,8 +60,6 @@ from .collision.collider import Collider
 from .params import SolverParams
 from .quality import TARGETS, GarmentMeter, free_point_depth
 from .transforms import compose, inverse, quat_slerp, yaw_quat
-
-SAME_BAND_M = 0.02  # an outer garment's attachment this close to an inner one's is carried as that one is
 
 
 def make_character(rest_pose: SkeletonPose, joint_map: dict[str, str], garments: Sequence[str | GarmentSpec],
@@ -178,7 +176,7 @@ class DressedCharacter:
         them: an outer garment cut like an inner one (a skirt's waistband on the trousers') would start in it."""
         if not inner_meshes:
             return mesh
-        mesh = _carried_like(mesh, inner_meshes)
+        mesh = carried_like(mesh, inner_meshes)
         x = np.ascontiguousarray(mesh.vertices, dtype=np.float64).copy()
         still, everywhere = np.zeros_like(x), np.ones(len(x), dtype=bool)
         before = x.copy()
@@ -436,25 +434,6 @@ class DressedCharacter:
         Attached points are left out: they ride on their segment wherever it puts them (a strapless
         dress's neckline runs under the arms' volumes)."""
         return max((free_point_depth(solver) for solver in self.solvers), default=0.0)
-
-
-def _carried_like(mesh: GarmentMesh, inner_meshes: Sequence[GarmentMesh]) -> GarmentMesh:
-    """``mesh`` with an attachment that lies on an inner garment's attachment of the same role (a skirt's
-    waistband on the trousers', every vertex within ``SAME_BAND_M`` of it) skinned as that one is: two bands
-    carried differently would part, and the outer one, whose points cannot be pushed, would pass through."""
-    shared = dict(mesh.shared_attachments)
-    for role, ids in mesh.attachments.items():
-        for inner in inner_meshes:
-            if role not in inner.attachments:
-                continue
-            band = inner.vertices[inner.attachments[role]]
-            gaps = np.linalg.norm(mesh.vertices[ids][:, None, :] - band[None, :, :], axis=2).min(axis=1)
-            if np.all(gaps <= SAME_BAND_M):
-                shared.pop(role, None)
-                if role in inner.shared_attachments:
-                    shared[role] = inner.shared_attachments[role]
-                break
-    return dataclasses.replace(mesh, shared_attachments=shared)
 
 
 def _in_root_frame(pose: SkeletonPose, joint_map) -> SkeletonPose:

@@ -29,12 +29,17 @@ crossing an inner triangle, through the same grid.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from typing import Sequence
 
 import numpy as np
 from numba import njit
 
 from ..collision.crossing import segment_crosses_triangle, segment_misses_triangle_box
+from .garments import GarmentMesh
+
+SAME_BAND_M = 0.02  # m: an outer garment's attachment this close to an inner one's is carried as that one is
 
 REACH_M = 0.05  # m: an outer point this close over an inner garment's triangle is checked against it
 _SETTLED = 1e-6  # m: a point this close to the thickness is where it belongs (no sweep for rounding)
@@ -402,3 +407,22 @@ class InnerSurface:
         return int(count_edges_through(np.ascontiguousarray(x, dtype=np.float64),
                                        np.ascontiguousarray(edges, dtype=np.int64), self.positions, self.triangles,
                                        self.origin, self.dims, self.cell, self.starts, self.entries))
+
+
+def carried_like(mesh: GarmentMesh, inner_meshes: Sequence[GarmentMesh]) -> GarmentMesh:
+    """``mesh`` with an attachment that lies on an inner garment's attachment of the same role (a skirt's
+    waistband on the trousers', every vertex within ``SAME_BAND_M`` of it) skinned as that one is: two bands
+    carried differently would part, and the outer one, whose points cannot be pushed, would pass through."""
+    shared = dict(mesh.shared_attachments)
+    for role, ids in mesh.attachments.items():
+        for inner in inner_meshes:
+            if role not in inner.attachments:
+                continue
+            band = inner.vertices[inner.attachments[role]]
+            gaps = np.linalg.norm(mesh.vertices[ids][:, None, :] - band[None, :, :], axis=2).min(axis=1)
+            if np.all(gaps <= SAME_BAND_M):
+                shared.pop(role, None)
+                if role in inner.shared_attachments:
+                    shared[role] = inner.shared_attachments[role]
+                break
+    return dataclasses.replace(mesh, shared_attachments=shared)
