@@ -231,8 +231,7 @@ class GarmentSolver:
         # points still near the volumes they touched, which the contact handling then keeps them out of.
         self.state = ClothState(x, np.zeros_like(x), self.state.contacts, time=time_s)
         if self.volumes is not None and len(self.volumes):  # the motion constraints' rest binding
-            self.skin = SkinBinding(x, self.volumes, *self._local_volume_poses(root_position, root_yaw, frame_positions,
-                                                                              frame_rotations))
+            self.skin = self.binding(x, root_position, root_yaw, frame_positions, frame_rotations)
 
     CARRY_PASSES = 8  # ``carry``: length-correction passes, each with the collision handling, then as many without
 
