@@ -201,12 +201,10 @@ class DressedCharacter:
             state = solver.state
             kept = (state.positions.copy(), state.velocities.copy())
             for inner in self._inner[row]:
-                if inner not in surfaces:
-                    surfaces[inner] = InnerSurface(self.solvers[inner].state.positions,
-                                                   self.solvers[inner].model.triangles, REACH_M)
                 tracked = self._tracked.setdefault((row, inner), np.full(solver.model.num_points, -1, np.int64))
-                surfaces[inner].separate(state.positions, state.velocities, solver.constants.inv_mass > 0.0,
-                                         solver.model.edges, solver.params.layer_thickness, tracked, previous[row])
+                self._surface(inner, surfaces).separate(state.positions, state.velocities,
+                                                        solver.constants.inv_mass > 0.0, solver.model.edges,
+                                                        solver.params.layer_thickness, tracked, previous[row])
             if solver.collider is not None:
                 # The body comes first: a point pushed off an inner garment into a volume (a forearm lying on
                 # the trousers at the hip) goes back to where the body's handling left it.
@@ -222,12 +220,17 @@ class DressedCharacter:
         for row, solver in enumerate(self.solvers):
             count = 0
             for inner in self._inner[row]:
-                if inner not in surfaces:
-                    surfaces[inner] = InnerSurface(self.solvers[inner].state.positions,
-                                                   self.solvers[inner].model.triangles, REACH_M)
-                count += surfaces[inner].edges_through(solver.state.positions, solver.model.edges)
+                count += self._surface(inner, surfaces).edges_through(solver.state.positions, solver.model.edges)
             counts.append(count)
         return counts
+
+    def _surface(self, row: int, surfaces: dict[int, InnerSurface]) -> InnerSurface:
+        """Garment ``row``'s surface where it is now, as a collider for those worn over it; built once per
+        pass (``surfaces``: row -> surface, filled here)."""
+        if row not in surfaces:
+            solver = self.solvers[row]
+            surfaces[row] = InnerSurface(solver.state.positions, solver.model.triangles, REACH_M)
+        return surfaces[row]
 
     def _layered_rows(self, solvers: Sequence[GarmentSolver]) -> list[int]:
         """Rows of ``solvers`` worn over another garment."""
@@ -249,7 +252,6 @@ class DressedCharacter:
             self._keep_clean(row, pose, position, yaw)
             self._dressed_at[row] = time_s
         if motion is None:
-            position, yaw = root_frame(pose, self.joint_map)
             still = np.zeros(3)
             motion = RootMotion(SampleStatus.OK, 0.0, 0, np.asarray(position, float), yaw, still, still, 0.0, 0.0)
         self._previous = (pose, motion, time_s)
