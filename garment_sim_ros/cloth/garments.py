@@ -151,6 +151,15 @@ def long_skirt(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) 
     return _skirt("long_skirt", body, resolution, hem_z, flare=1.8, around=48, levels=13)
 
 
+def _neckline_half_width(body: BodyMeasurements, ease: float) -> float:
+    """Half width (m) of the one-piece's neckline: the chest's plus ease, but inside the upper arms hanging
+    straight down by that ease. Cut to the chest's width, the neckline's sides (attached, so never pushed out)
+    lay 10-35 mm inside a hanging arm's volume on the Character Creator clips, and the bodice under them
+    was pushed out round the arm's far side: an upper arm through the top band in 74 of 180 frames on the
+    CC jump and 39 on the basketball clip."""
+    return min(body.chest_ry + ease, body.underarm_y - ease)
+
+
 def one_piece(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> GarmentMesh:
     """A strapless one-piece dress from under the arms to below the knee; its top edge is carried by the chest."""
     ease = 0.015  # a little more than the skirts: the chest volume swells between the knots below
@@ -163,6 +172,9 @@ def one_piece(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -
     ])
     n_around, n_levels = _counts(resolution, 48, 15)
     vertices, triangles, rings = _tube(_profile(body.chest_z, hem_z, n_levels, radii), n_around)
+    neckline = vertices[rings[0]]
+    neckline[:, 1] *= _neckline_half_width(body, ease) / (body.chest_ry + ease)
+    vertices[rings[0]] = neckline
     waist_level = int(np.argmin([abs(v[2] - body.waist_z) for v in vertices[[r[0] for r in rings]]]))
     return GarmentMesh("one_piece", vertices, triangles, {"chest": rings[0]},
                        {"neckline": [rings[0]], "waist": [rings[waist_level]], "hem": [rings[-1]]})
