@@ -43,8 +43,8 @@ class BodyMeasurements:
     # height of the spine segment's joint (the lumbar pivot), m; inf when the skeleton has none
     spine_z: float = float("inf")
     # lateral offset of the inner side of an upper arm hanging straight down from its shoulder joint (the
-    # joint's offset less the arm volume's radius), m: a strapless neckline narrower than this clears the arms
-    underarm_y: float = 0.14
+    # joint's offset less the arm volume's radius; the nearer arm's), m
+    underarm_y: float = 0.141
 
     def __post_init__(self):
         for f in fields(self):

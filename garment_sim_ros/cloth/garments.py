@@ -36,6 +36,8 @@ _CROTCH_EASE_PER_THIGH = 0.65
 # thigh and knee (35 mm on the 1.75 m standard body), and below the knee (45 mm): scaled with the body.
 _THIGH_EASE_PER_THIGH = 0.41
 _SHIN_EASE_PER_THIGH = 0.53
+# Room between a one-piece's neckline and the upper arms hanging at the sides, per stature (15 mm at 1.75 m).
+_UNDERARM_EASE_PER_STATURE = 0.0086
 
 
 def _crotch_drop(body: BodyMeasurements) -> float:
@@ -153,11 +155,12 @@ def long_skirt(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) 
 
 def _neckline_half_width(body: BodyMeasurements, ease: float) -> float:
     """Half width (m) of the one-piece's neckline: the chest's plus ease, but inside the upper arms hanging
-    straight down by that ease. Cut to the chest's width, the neckline's sides (attached, so never pushed out)
-    lay 10-35 mm inside a hanging arm's volume on the Character Creator clips, and the bodice under them
-    was pushed out round the arm's far side: an upper arm through the top band in 74 of 180 frames on the
-    CC jump and 39 on the basketball clip."""
-    return min(body.chest_ry + ease, body.underarm_y - ease)
+    straight down from their shoulder joints (``underarm_y``) by ``_UNDERARM_EASE_PER_STATURE``. Cut to the
+    chest's width, the neckline's sides (attached, so never pushed out of a volume) lay 10-35 mm inside a
+    hanging arm on the Character Creator clips, and the bodice under them was pushed out round the arm's far
+    side: the upper arm's bone through the top band in 74 of 180 frames on the CC jump, 39 on the basketball
+    clip (1x, 60 fps)."""
+    return min(body.chest_ry + ease, body.underarm_y - _UNDERARM_EASE_PER_STATURE * body.height)
 
 
 def one_piece(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> GarmentMesh:
