@@ -391,6 +391,10 @@ def _measure(fit: _Fit, volumes: VolumeSet, levels: dict[str, float]) -> BodyMea
     knee_radius = max(max(max(v.radii[:2]) for v in shins),
                       max(limb_section(v.name, 0.5 * levels["thigh"]) for v in thighs))
     ankle_radius = max(limb_section(v.name, 0.5 * levels["shin"]) for v in shins)
+    # the nearer hanging arm's inner side; at least the neck's radius (an override's fat arm)
+    underarm_y = max(min(abs(float(fit.local(fit.world(f"{s}_upper_arm"))[1]))
+                         - max(by_name[f"{s}_upper_arm"].radii[:2]) for s in ("left", "right")),
+                     NECK_RADIUS_PER_STATURE * stature)
     head, head_centre, _ = placed("head")
     chest, chest_centre, chest_axis = placed("chest")
     height = float(head_centre[2] + head.radii[0]) - (ankle_z - ANKLE_HEIGHT_PER_STATURE * stature)
@@ -408,6 +412,7 @@ def _measure(fit: _Fit, volumes: VolumeSet, levels: dict[str, float]) -> BodyMea
         shoulder_z=levels["shoulder_z"], shoulder_y=levels["shoulder_y"],
         neck_z=chest_centre[2] + chest.cut[1] * chest_axis[2], neck_radius=NECK_RADIUS_PER_STATURE * stature,
         waist_x=waist_x, hip_x=hip_x, chest_x=chest_x, leg_x=levels["leg_x"], spine_z=levels["spine_z"],
+        underarm_y=underarm_y,
     ).items()})
 
 

@@ -42,6 +42,9 @@ class BodyMeasurements:
     leg_x: float = 0.0
     # height of the spine segment's joint (the lumbar pivot), m; inf when the skeleton has none
     spine_z: float = float("inf")
+    # lateral offset of the inner side of an upper arm hanging straight down from its shoulder joint (the
+    # joint's offset less the arm volume's radius; the nearer arm's), m
+    underarm_y: float = 0.141
 
     def __post_init__(self):
         for f in fields(self):
