@@ -75,7 +75,6 @@ class FrameReport:
     integration_s: float = 0.0  # forces + explicit step + velocities (wall time)
     correction_s: float = 0.0  # Provot length correction (wall time)
     collision_s: float = 0.0  # contact + full collision handling (wall time)
-    fused_s: float = 0.0  # the fused path's one call for all substeps (wall time; the three above are then 0)
     static_hits: int = 0
     dynamic_hits: int = 0
     max_stretch: float = 0.0  # largest structural/shear length / rest length after the frame

@@ -20,18 +20,38 @@ integration, and no test covers it) and a collider with its broad phase switched
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from ..collision import broad_phase, crossing
 from ..collision import kernels as collision_kernels
 from ..collision.collider import AXIS_PASSES
+from ..collision.kernels import parallel_twin
 from ..collision.volume_arrays import VolumeArrays
 from . import kernels
 from .motion_constraints import limit_distance
 
 _NO_POINTS = np.zeros((0, 3))
+INTEGRATION, CORRECTION, COLLISION, CALL = range(4)  # ``run_substeps``' tick counters
+# the collision drivers the serial chain below calls; the parallel chain (``_parallel_chain``) their twins
+_handle_all, _handle_contacts = collision_kernels.handle_all, collision_kernels.handle_contacts
+
+
+@intrinsic
+def _cycles(typingctx):
+    """The CPU's cycle counter (LLVM's ``readcyclecounter``; 0 where the CPU has none): the stage split inside
+    the call, which has no clock of its own. Only ratios of it are used (``advance_substeps``)."""
+    def codegen(context, builder, signature, args):
+        counter = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.IntType(64), []),
+                                                 "llvm.readcyclecounter")
+        return builder.call(counter, [])
+
+    return types.int64(), codegen
 
 
 def usable(solver) -> bool:
@@ -40,12 +60,14 @@ def usable(solver) -> bool:
 
 
 def advance_substeps(solver, frame, count: int, h: float, v0, a0, yaw_rate: float, yaw_acc: float, yaw_step: float,
-                     targets0, targets1, skinned) -> tuple[int, int]:
+                     targets0, targets1, skinned, report) -> None:
     """The substep loop of ``GarmentSolver.advance`` for ``count`` substeps of ``h`` s, in one compiled call.
 
     Per-substep inputs as the reference loop computes them (``relative_frame_forces``, ``wind_velocity``);
     ``skinned``: the motion constraints' skinned positions (N, 3) at the frame's ends, or None when off.
-    The collider's ``begin_frame`` must have run. Returns the frame's (static, dynamic) hits."""
+    The collider's ``begin_frame`` must have run. Adds the hits to the collider's counters, and the call's wall
+    time to ``report``'s stages, split as the cycle counter measured them inside it (all of it to integration
+    on a CPU without one); Python and numba's dispatch around the kernels, a few us, are spread with it."""
     from .solver import relative_frame_forces, wind_velocity
 
     params, const, model, state, collider = solver.params, solver.constants, solver.model, solver.state, solver.collider
@@ -74,22 +96,34 @@ def advance_substeps(solver, frame, count: int, h: float, v0, a0, yaw_rate: floa
                 int(params.strain_limit_iterations), float(params.contact_mobility),
                 1.0 + params.limit_ratio + params.strain_limit_tolerance, float(solver.STRAIN_LIMIT_UNDONE))
     contact = (collider._eps, collider._friction, collider._c_time, collider._switch_ratio, collider._mode,
-               collider._pinch_depth, collider._edge_pinch_depth, collider.parallel)
-    n_static, n_dynamic = run_substeps(
+               collider._pinch_depth, collider._edge_pinch_depth)
+    ticks = np.zeros(4, dtype=np.int64)
+    tic = time.perf_counter()
+    n_static, n_dynamic = (run_substeps_parallel if collider.parallel else run_substeps)(
         state.positions, state.velocities, state.contacts, garment, scratch, uniform, frame_velocity, omega,
         fractions, targets0, targets1, skinned0, skinned1, collider._packed, collider._frame_pos,
-        collider._frame_quat, settings, contact)
-    return int(n_static), int(n_dynamic)
+        collider._frame_quat, settings, contact, ticks)
+    wall = time.perf_counter() - tic
+    collider.static_hits += int(n_static)
+    collider.dynamic_hits += int(n_dynamic)
+    if ticks[CALL] <= 0:
+        report.integration_s += wall
+        return
+    report.integration_s += wall * (ticks[CALL] - ticks[CORRECTION] - ticks[COLLISION]) / ticks[CALL]
+    report.correction_s += wall * ticks[CORRECTION] / ticks[CALL]
+    report.collision_s += wall * ticks[COLLISION] / ticks[CALL]
 
 
 @njit(cache=True)
 def run_substeps(x, v, contacts, garment, scratch, uniform, frame_velocity, omega, fractions, targets0, targets1,
-                 skinned0, skinned1, arrays, frame_pos, frame_quat, settings, contact):
+                 skinned0, skinned1, arrays, frame_pos, frame_quat, settings, contact, ticks):
     """All substeps of a frame, as ``GarmentSolver.advance``'s loop (with a collider) runs them; ``x``, ``v``
     (N, 3) and ``contacts`` in place. Per substep k: ``uniform`` (K, 3) m/s^2, ``frame_velocity`` (K, 3) m/s,
     ``omega`` (K,) rad/s, ``fractions`` (K, 2) of the frame at its ends; the tuples as ``advance_substeps``
     packs them. Returns (static hits, dynamic hits); a non-finite force sets ``x`` to NaN and stops, as the
-    reference loop does."""
+    reference loop does. Adds cycle counts to ``ticks`` (4,): the correction's, the collision's (with the
+    volumes' poses per substep), the whole call's; the rest of the call is the integration's."""
+    start = _cycles()
     (mass, inv_mass, springs, rest, stiffness, damping, attached, tether_anchors, tether_lengths, edges, edge_rest,
      triangles) = garment
     forces, x_start = scratch[0], scratch[1]
@@ -108,30 +142,40 @@ def run_substeps(x, v, contacts, garment, scratch, uniform, frame_velocity, omeg
             break
         kernels.integrate(x, v, forces, inv_mass, h, x_start)
         kernels.set_attached(x, attached, targets0, targets1, f1)
+        tic = _cycles()
         # the collider's begin_substep: the volumes' poses at the substep's ends
         broad_phase.interpolate_poses(frame_pos[0], frame_quat[0], frame_pos[1], frame_quat[1], f0, vol.pos0, vol.rot0)
         broad_phase.interpolate_poses(frame_pos[0], frame_quat[0], frame_pos[1], frame_quat[1], f1, vol.pos1, vol.rot1)
         broad_phase.substep_motion(vol.pos0, vol.rot0, vol.pos1, vol.rot1, vol.displacement, vol.chord)
+        tac = _cycles()
+        ticks[COLLISION] += tac - tic
         for iteration in range(max(1, iterations)):
             if iteration < iterations:
                 kernels.length_correction(x, inv_mass, springs, rest, correct_count, limit_ratio)
                 if tethers:
                     kernels.tether_constraints(x, inv_mass, tether_anchors, tether_lengths, tether_scale)
             if iteration == 0:
-                n_static += _contacts(arrays, x_start, x, v, inv_mass, h, eps, friction, switch_ratio, mode, contacts,
-                                      contact[7])
+                tic = _cycles()
+                n_static += _handle_contacts(arrays, x_start, x, v, inv_mass, h, eps, friction, switch_ratio, mode,
+                                              contacts)
+                ticks[COLLISION] += _cycles() - tic
+                tac += _cycles() - tic
+        ticks[CORRECTION] += _cycles() - tac
         if constrained:
             limit_distance(x, skinned0, skinned1, f1, max_distance, inv_mass)
         kernels.velocities_from_positions(x, x_start, h, v)
+        tic = _cycles()
         scratch[2][:] = x
         s, d = _resolve(arrays, x_start, x, v, inv_mass, h, contacts, edges, edge_rest, triangles, scratch, contact)
         n_static += s
         n_dynamic += d
+        ticks[COLLISION] += _cycles() - tic
         if strain_iterations > 0:
             s, d = _limit_strain(arrays, x_start, x, v, inv_mass, h, contacts, springs, rest, edges, edge_rest,
-                                 triangles, scratch, settings, contact, skinned0, skinned1, f1)
+                                 triangles, scratch, settings, contact, skinned0, skinned1, f1, ticks)
             n_static += s
             n_dynamic += d
+    ticks[CALL] += _cycles() - start
     return n_static, n_dynamic
 
 
@@ -145,24 +189,10 @@ def _sum(a):
 
 
 @njit(cache=True)
-def _contacts(arrays, xs, x, v, inv_mass, h, eps, friction, switch_ratio, mode, contacts, parallel):
-    """``Collider._contacts``: the cached pairs, over the threads when the collider spreads its points."""
-    if parallel:
-        return collision_kernels.handle_contacts_parallel(arrays, xs, x, v, inv_mass, h, eps, friction, switch_ratio,
-                                                          mode, contacts)
-    return collision_kernels.handle_contacts(arrays, xs, x, v, inv_mass, h, eps, friction, switch_ratio, mode,
-                                             contacts)
-
-
-@njit(cache=True)
 def _points(arrays, xs, x, v, inv_mass, h, contacts, scratch, contact):
     """``Collider._points``: every point against every volume; (static hits, dynamic hits)."""
-    eps, friction, c_time, switch_ratio, mode = contact[0], contact[1], contact[2], contact[3], contact[4]
-    if contact[7]:
-        return collision_kernels.handle_all_parallel(arrays, xs, x, v, inv_mass, h, eps, friction, c_time,
-                                                     switch_ratio, mode, contacts, scratch[9])
-    return collision_kernels.handle_all(arrays, xs, x, v, inv_mass, h, eps, friction, c_time, switch_ratio, mode,
-                                        contacts, scratch[9])
+    return _handle_all(arrays, xs, x, v, inv_mass, h, contact[0], contact[1], contact[2], contact[3], contact[4],
+                       contacts, scratch[9])
 
 
 @njit(cache=True)
@@ -174,7 +204,7 @@ def _resolve(arrays, xs, x, v, inv_mass, h, contacts, edges, edge_rest, triangle
     crossed = crossing.handle_axes(arrays, xs, x, v, inv_mass, h, triangles, eps, pinch_depth, AXIS_PASSES,
                                    scratch[10])
     if collision_kernels.handle_edges(arrays, xs, x, inv_mass, edges, edge_rest, edge_pinch_depth) or crossed:
-        n_static += _contacts(arrays, xs, x, v, inv_mass, h, eps, friction, switch_ratio, mode, contacts, contact[7])
+        n_static += _handle_contacts(arrays, xs, x, v, inv_mass, h, eps, friction, switch_ratio, mode, contacts)
         collision_kernels.handle_edges(arrays, xs, x, inv_mass, edges, edge_rest, edge_pinch_depth)
         s, d = _points(arrays, xs, x, v, inv_mass, h, contacts, scratch, contact)
         n_static += s
@@ -185,8 +215,9 @@ def _resolve(arrays, xs, x, v, inv_mass, h, contacts, edges, edge_rest, triangle
 
 @njit(cache=True)
 def _limit_strain(arrays, xs, x, v, inv_mass, h, contacts, springs, rest, edges, edge_rest, triangles, scratch,
-                  settings, contact, skinned0, skinned1, f1):
-    """``GarmentSolver._limit_strain`` (same calls, same order); (static hits, dynamic hits)."""
+                  settings, contact, skinned0, skinned1, f1, ticks):
+    """``GarmentSolver._limit_strain`` (same calls, same order, its stage split); (static hits, dynamic hits)."""
+    tic = _cycles()
     x_collision, x_kept, v_kept, v_scratch, strain_inv_mass, stretches, depths = scratch[2:9]
     correct_count, limit_ratio, constrained, max_distance, strain_iterations = (settings[5], settings[6], settings[9],
                                                                                 settings[10], settings[11])
@@ -196,20 +227,40 @@ def _limit_strain(arrays, xs, x, v, inv_mass, h, contacts, springs, rest, edges,
     x_kept[:] = x
     v_kept[:] = v
     worst_kept = kernels.spring_stretches(x, springs, rest, stretches)
+    tac = _cycles()
     n_static = 0
     for _ in range(strain_iterations):
         if kernels.length_correction(x, strain_inv_mass, springs, rest, correct_count, limit_ratio) <= converged:
             break
-        n_static += _contacts(arrays, xs, x, v_scratch, inv_mass, h, eps, friction, switch_ratio, mode, contacts,
-                              contact[7])
+        n_static += _handle_contacts(arrays, xs, x, v_scratch, inv_mass, h, eps, friction, switch_ratio, mode,
+                                      contacts)
     if constrained:
         limit_distance(x, skinned0, skinned1, f1, max_distance, inv_mass)
     for i in range(x.shape[0]):
         for c in range(3):
             v[i, c] += (x[i, c] - x_kept[i, c]) / h
+    toc = _cycles()
     s, n_dynamic = _resolve(arrays, xs, x, v, inv_mass, h, contacts, edges, edge_rest, triangles, scratch, contact)
-    kernels.keep_where_inside(x, v, x_kept, v_kept, collision_kernels.penetration_depths(arrays, x, depths))
+    collision_kernels.penetration_depths(arrays, x, depths)
+    kernels.keep_where_inside(x, v, x_kept, v_kept, depths)
     if kernels.spring_stretches(x, springs, rest, stretches) > max(worst_kept, undone):
         x[:] = x_kept  # the handling threw a point off (see GarmentSolver.STRAIN_LIMIT_UNDONE): not this substep
         v[:] = v_kept
+    ticks[CORRECTION] += toc - tac
+    ticks[COLLISION] += (tac - tic) + (_cycles() - toc)
     return n_static + s, n_dynamic
+
+
+def _parallel_chain():
+    """``run_substeps`` with the collision drivers' ``prange`` twins, and every function between them compiled
+    with numba's threads too: a cached function without them that calls a parallel one crashes when loaded
+    from numba's cache (numba 0.68: a segfault on the first call; compiled fresh it runs)."""
+    namespace = dict(globals())
+    namespace["_handle_all"] = collision_kernels.handle_all_parallel
+    namespace["_handle_contacts"] = collision_kernels.handle_contacts_parallel
+    for name in ("_points", "_resolve", "_limit_strain", "run_substeps"):
+        namespace[name] = parallel_twin(globals()[name].py_func, namespace)
+    return namespace["run_substeps"]
+
+
+run_substeps_parallel = _parallel_chain()

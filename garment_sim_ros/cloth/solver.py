@@ -325,12 +325,8 @@ class GarmentSolver:
         clock = time.perf_counter
         run_fused = self.use_fused and fused.usable(self)
         if run_fused:  # the same substeps in one compiled call (``cloth.fused``)
-            tic = clock()
-            hits = fused.advance_substeps(self, frame, count, h, v0, a0, yaw_rate, yaw_acc, yaw_step, targets0,
-                                          targets1, (skinned0, skinned1) if constrained else None)
-            collider.static_hits += hits[0]
-            collider.dynamic_hits += hits[1]
-            report.fused_s = clock() - tic
+            fused.advance_substeps(self, frame, count, h, v0, a0, yaw_rate, yaw_acc, yaw_step, targets0, targets1,
+                                   (skinned0, skinned1) if constrained else None, report)
         for k in range(0 if run_fused else count):  # the reference path
             f0, f1 = k / count, (k + 1) / count
             mid = 0.5 * (f0 + f1) * dt  # body time since t0 at the substep's middle

@@ -1,0 +1,161 @@
+"""Where a frame of the solver goes, and the fused frame against the reference loop (issue 15 item 1).
+
+Two cases: the one-piece on a real clip (CC walk, default parameters, 60 fps) and the 20 000-point one-piece
+under the Table 1 protocol (``garment-sim scale``: memo preset, procedural walk, 0.04 s frames). Per case two
+characters dressed alike, one on the reference path (``GarmentSolver.use_fused = False``), one fused, stepped
+in turn frame by frame (so load changes hit both alike); per path the median per frame of the solver's step
+(``DressedCharacter.step``' wall time) and of its stages (``FrameReport``), and whether the garments stayed
+equal. Then the reference path's kernel calls per frame (counted on a third character) and what numba's
+dispatch of them costs: each kernel called with its own recorded arguments into an empty compiled function
+of the same arity (the typing and boxing of the arguments, no work).
+
+    PYTHONPATH=$PWD python bench/fused.py [--frames 120] [--large-frames 20] [--skip-large]
+
+One JSON line per case and path, then one per case with the call profile.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+from numba import njit
+from numba.core.registry import CPUDispatcher
+
+from garment_sim_ros import benchmarking
+from garment_sim_ros.body.sources import bvh_source, procedural_source
+from garment_sim_ros.cloth import kernels as cloth_kernels
+from garment_sim_ros.cloth import solver as solver_module
+from garment_sim_ros.collision import broad_phase, crossing
+from garment_sim_ros.collision import kernels as collision_kernels
+from garment_sim_ros.commands.scale import resolution_for
+from garment_sim_ros.commands.table1 import FRAME_S
+from garment_sim_ros.dressing import make_character
+from garment_sim_ros.params import DEFAULT_PARAMS, PRESETS
+
+CLIP = Path(__file__).resolve().parent.parent / "test" / "data" / "cc_cmu_07_01_walk.bvh"
+KERNEL_MODULES = (cloth_kernels, collision_kernels, crossing, broad_phase, solver_module)
+
+
+def case_source(name: str):
+    """(motion source, params, resolution, frame time s) of a case."""
+    if name == "one_piece_cc_walk":
+        return bvh_source(str(CLIP), loop=True), DEFAULT_PARAMS, 1.0, 1.0 / 60.0
+    return procedural_source("walk"), PRESETS["memo"], resolution_for(20_000), FRAME_S
+
+
+def dressed(name: str, fused: bool):
+    source, params, resolution, frame_s = case_source(name)
+    character = make_character(source.rest_pose, source.joint_map, ["one_piece"], params, resolution,
+                               motion=source.fit_poses())
+    for solver in character.solvers:
+        solver.use_fused = fused
+    character.dress(source.pose(0.0), 0.0, source.motion(0.0))
+    return source, character, frame_s
+
+
+def step(source, character, t):
+    tic = time.perf_counter()
+    reports = character.step(source.pose(t), source.motion(t), t)
+    return time.perf_counter() - tic, reports
+
+
+def compare(name: str, frames: int, warmup: int) -> list[dict]:
+    """Both paths stepped in turn; one row per path, medians in ms."""
+    runs = {"reference": dressed(name, False), "fused": dressed(name, True)}
+    samples = {path: {k: [] for k in ("step", "integration", "correction", "collision")} for path in runs}
+    max_difference = 0.0
+    for frame in range(1, warmup + frames + 1):
+        for path, (source, character, frame_s) in runs.items():
+            wall, reports = step(source, character, frame * frame_s)
+            if frame <= warmup:
+                continue
+            samples[path]["step"].append(wall)
+            for stage in ("integration", "correction", "collision"):
+                samples[path][stage].append(sum(getattr(r, f"{stage}_s") for r in reports))
+        positions = [c.solvers[0].state.positions for _, c, _ in runs.values()]
+        max_difference = max(max_difference, float(np.abs(positions[0] - positions[1]).max()))
+    points = runs["fused"][1].solvers[0].model.num_points
+    rows = []
+    for path, series in samples.items():
+        row = {"bench": "fused", "case": name, "path": path, "mass_points": points, "frames": frames}
+        row.update({f"{k}_ms": round(statistics.median(v) * 1e3, 4) for k, v in series.items()})
+        row["max_position_difference_m"] = max_difference
+        row["load_1min"] = benchmarking.load_average()
+        rows.append(row)
+    return rows
+
+
+def _empty(arity: int):
+    """A compiled function of ``arity`` arguments that does nothing (numba's dispatch cost alone)."""
+    names = ", ".join(f"a{k}" for k in range(arity))
+    scope: dict = {}
+    exec(f"def empty({names}):\n    return 0\n", scope)
+    return njit(scope["empty"])
+
+
+def call_profile(name: str, frames: int) -> dict:
+    """The reference path's kernel calls per frame and numba's dispatch cost of them."""
+    source, character, frame_s = dressed(name, False)
+    step(source, character, frame_s)  # compiled and cached before the kernels are wrapped
+    calls: Counter = Counter()
+    sample_args: dict[str, tuple] = {}
+    originals = []
+    for module in KERNEL_MODULES:
+        for attribute, value in list(vars(module).items()):
+            if isinstance(value, CPUDispatcher):
+                def counted(*args, _kernel=value, _name=f"{module.__name__}.{attribute}"):
+                    calls[_name] += 1
+                    sample_args.setdefault(_name, args)
+                    return _kernel(*args)
+                originals.append((module, attribute, value))
+                setattr(module, attribute, counted)
+    try:
+        stepped = 0.0
+        for frame in range(2, frames + 2):
+            stepped += step(source, character, frame * frame_s)[0]
+    finally:
+        for module, attribute, value in originals:
+            setattr(module, attribute, value)
+    dispatch_s = 0.0
+    per_kernel = {}
+    for kernel_name, args in sample_args.items():
+        empty = _empty(len(args))
+        empty(*args)
+        repeats = 2000
+        tic = time.perf_counter()
+        for _ in range(repeats):
+            empty(*args)
+        each = (time.perf_counter() - tic) / repeats
+        per_kernel[kernel_name] = {"calls_per_frame": calls[kernel_name] / frames,
+                                   "empty_call_us": round(each * 1e6, 2)}
+        dispatch_s += calls[kernel_name] * each
+    return {"bench": "fused_calls", "case": name, "frames": frames,
+            "calls_per_frame": round(sum(calls.values()) / frames, 1),
+            "dispatch_ms_per_frame": round(dispatch_s / frames * 1e3, 4),
+            "kernels": per_kernel, "load_1min": benchmarking.load_average()}
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", type=int, default=120, help="timed frames of the one-piece case")
+    parser.add_argument("--large-frames", type=int, default=20, help="timed frames of the 20 000-point case")
+    parser.add_argument("--warmup", type=int, default=5)
+    parser.add_argument("--skip-large", action="store_true", help="only the one-piece on the real clip")
+    args = parser.parse_args()
+    cases = [("one_piece_cc_walk", args.frames)] + ([] if args.skip_large else [("one_piece_20k", args.large_frames)])
+    for name, frames in cases:
+        for row in compare(name, frames, args.warmup):
+            print(json.dumps(row), flush=True)
+        print(json.dumps(call_profile(name, max(5, frames // 4))), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
