@@ -1,15 +1,17 @@
 """Where a frame of the solver goes, and the fused frame against the reference loop (issue 15 item 1).
 
-Two cases: the one-piece on a real clip (CC walk, default parameters, 60 fps) and the 20 000-point one-piece
-under the Table 1 protocol (``garment-sim scale``: memo preset, procedural walk, 0.04 s frames). Per case two
+Three cases: the one-piece on a real clip (CC walk, default parameters, 60 fps: the real-motion quality on),
+the one-piece under the Table 1 protocol (memo preset, procedural walk, 0.04 s frames) and the 20 000-point
+one-piece under the same protocol (``garment-sim scale``). Per case two
 characters dressed alike, one on the reference path (``GarmentSolver.use_fused = False``), one fused, stepped
 in turn frame by frame (so load changes hit both alike); per path the median per frame of the solver's step
 (``DressedCharacter.step``' wall time) and of its stages (``FrameReport``), and whether the garments stayed
 equal. Then the reference path's kernel calls per frame (counted on a third character) and what numba's
 dispatch of them costs: each kernel called with its own recorded arguments into an empty compiled function
-of the same arity (the typing and boxing of the arguments, no work).
+of the same arity (the typing and boxing of the arguments, no work), and each kernel's wall time per frame
+(its calls timed from Python, dispatch included).
 
-    PYTHONPATH=$PWD python bench/fused.py [--frames 120] [--large-frames 20] [--skip-large]
+    PYTHONPATH=$PWD python bench/fused.py [--frames 120] [--large-frames 20] [--cases one_piece_cc_walk ...]
 
 One JSON line per case and path, then one per case with the call profile.
 """
@@ -43,11 +45,15 @@ CLIP = Path(__file__).resolve().parent.parent / "test" / "data" / "cc_cmu_07_01_
 KERNEL_MODULES = (cloth_kernels, collision_kernels, crossing, broad_phase, solver_module)
 
 
+CASES = ("one_piece_cc_walk", "one_piece_memo", "one_piece_20k")
+
+
 def case_source(name: str):
     """(motion source, params, resolution, frame time s) of a case."""
     if name == "one_piece_cc_walk":
         return bvh_source(str(CLIP), loop=True), DEFAULT_PARAMS, 1.0, 1.0 / 60.0
-    return procedural_source("walk"), PRESETS["memo"], resolution_for(20_000), FRAME_S
+    resolution = resolution_for(20_000) if name == "one_piece_20k" else 1.0
+    return procedural_source("walk"), PRESETS["memo"], resolution, FRAME_S
 
 
 def dressed(name: str, fused: bool):
@@ -105,6 +111,7 @@ def call_profile(name: str, frames: int) -> dict:
     source, character, frame_s = dressed(name, False)
     step(source, character, frame_s)  # compiled and cached before the kernels are wrapped
     calls: Counter = Counter()
+    spent: Counter = Counter()  # s per kernel, the call's wall time with its dispatch
     sample_args: dict[str, tuple] = {}
     originals = []
     for module in KERNEL_MODULES:
@@ -113,7 +120,10 @@ def call_profile(name: str, frames: int) -> dict:
                 def counted(*args, _kernel=value, _name=f"{module.__name__}.{attribute}"):
                     calls[_name] += 1
                     sample_args.setdefault(_name, args)
-                    return _kernel(*args)
+                    tic = time.perf_counter()
+                    result = _kernel(*args)
+                    spent[_name] += time.perf_counter() - tic
+                    return result
                 originals.append((module, attribute, value))
                 setattr(module, attribute, counted)
     try:
@@ -133,12 +143,15 @@ def call_profile(name: str, frames: int) -> dict:
         for _ in range(repeats):
             empty(*args)
         each = (time.perf_counter() - tic) / repeats
-        per_kernel[kernel_name] = {"calls_per_frame": calls[kernel_name] / frames,
-                                   "empty_call_us": round(each * 1e6, 2)}
+        per_kernel[kernel_name.split(".", 1)[1]] = {
+            "calls_per_frame": calls[kernel_name] / frames, "empty_call_us": round(each * 1e6, 2),
+            "ms_per_frame": round(spent[kernel_name] / frames * 1e3, 4)}
         dispatch_s += calls[kernel_name] * each
     return {"bench": "fused_calls", "case": name, "frames": frames,
             "calls_per_frame": round(sum(calls.values()) / frames, 1),
             "dispatch_ms_per_frame": round(dispatch_s / frames * 1e3, 4),
+            "kernels_ms_per_frame": round(sum(spent.values()) / frames * 1e3, 4),
+            "step_ms_per_frame": round(stepped / frames * 1e3, 4),
             "kernels": per_kernel, "load_1min": benchmarking.load_average()}
 
 
@@ -147,10 +160,10 @@ def main() -> int:
     parser.add_argument("--frames", type=int, default=120, help="timed frames of the one-piece case")
     parser.add_argument("--large-frames", type=int, default=20, help="timed frames of the 20 000-point case")
     parser.add_argument("--warmup", type=int, default=5)
-    parser.add_argument("--skip-large", action="store_true", help="only the one-piece on the real clip")
+    parser.add_argument("--cases", nargs="+", choices=CASES, default=list(CASES))
     args = parser.parse_args()
-    cases = [("one_piece_cc_walk", args.frames)] + ([] if args.skip_large else [("one_piece_20k", args.large_frames)])
-    for name, frames in cases:
+    for name in args.cases:
+        frames = args.large_frames if name == "one_piece_20k" else args.frames
         for row in compare(name, frames, args.warmup):
             print(json.dumps(row), flush=True)
         print(json.dumps(call_profile(name, max(5, frames // 4))), flush=True)
