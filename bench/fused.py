@@ -1,15 +1,15 @@
 """Where a frame of the solver goes, and the fused frame against the reference loop (issue 15 item 1).
 
-Three cases: the one-piece on a real clip (CC walk, default parameters, 60 fps: the real-motion quality on),
-the one-piece under the Table 1 protocol (memo preset, procedural walk, 0.04 s frames) and the 20 000-point
-one-piece under the same protocol (``garment-sim scale``). Per case two
-characters dressed alike, one on the reference path (``GarmentSolver.use_fused = False``), one fused, stepped
-in turn frame by frame (so load changes hit both alike); per path the median per frame of the solver's step
-(``DressedCharacter.step``' wall time) and of its stages (``FrameReport``), and whether the garments stayed
-equal. Then the reference path's kernel calls per frame (counted on a third character) and what numba's
-dispatch of them costs: each kernel called with its own recorded arguments into an empty compiled function
-of the same arity (the typing and boxing of the arguments, no work), and each kernel's wall time per frame
-(its calls timed from Python, dispatch included).
+Four cases: the one-piece on a real clip (CC walk, default parameters, 60 fps: the real-motion quality on),
+the one-piece under the Table 1 protocol (memo preset, procedural walk, 0.04 s frames) and the 5 000 and
+20 000-point one-piece under the same protocol (``garment-sim scale``). Per case two characters dressed
+alike, one on the reference path (``GarmentSolver.use_fused = False``), one fused, stepped in turn frame by
+frame (so load changes hit both alike); per path the median per frame of the solver's step
+(``DressedCharacter.step``' wall time, without the quality figures) and of its stages (``FrameReport``),
+and whether the garments stayed equal. Then the reference path's kernel calls per frame (counted on a third
+character) and what numba's dispatch of them costs: each kernel called with its own recorded arguments into
+an empty compiled function of the same arity (the typing and boxing of the arguments, no work), and each
+kernel's wall time per frame (its calls timed from Python, dispatch included).
 
     PYTHONPATH=$PWD python bench/fused.py [--frames 120] [--large-frames 20] [--cases one_piece_cc_walk ...]
 
@@ -45,14 +45,15 @@ CLIP = Path(__file__).resolve().parent.parent / "test" / "data" / "cc_cmu_07_01_
 KERNEL_MODULES = (cloth_kernels, collision_kernels, crossing, broad_phase, solver_module)
 
 
-CASES = ("one_piece_cc_walk", "one_piece_memo", "one_piece_20k")
+CASES = ("one_piece_cc_walk", "one_piece_memo", "one_piece_5k", "one_piece_20k")
+LARGE = {"one_piece_5k": 5_000, "one_piece_20k": 20_000}  # mass points, parallel collision drivers
 
 
 def case_source(name: str):
     """(motion source, params, resolution, frame time s) of a case."""
     if name == "one_piece_cc_walk":
         return bvh_source(str(CLIP), loop=True), DEFAULT_PARAMS, 1.0, 1.0 / 60.0
-    resolution = resolution_for(20_000) if name == "one_piece_20k" else 1.0
+    resolution = resolution_for(LARGE[name]) if name in LARGE else 1.0
     return procedural_source("walk"), PRESETS["memo"], resolution, FRAME_S
 
 
@@ -68,7 +69,7 @@ def dressed(name: str, fused: bool):
 
 def step(source, character, t):
     tic = time.perf_counter()
-    reports = character.step(source.pose(t), source.motion(t), t)
+    reports = character.step(source.pose(t), source.motion(t), t, measure=False)  # the solver, not the quality
     return time.perf_counter() - tic, reports
 
 
@@ -158,12 +159,12 @@ def call_profile(name: str, frames: int) -> dict:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=120, help="timed frames of the one-piece case")
-    parser.add_argument("--large-frames", type=int, default=20, help="timed frames of the 20 000-point case")
+    parser.add_argument("--large-frames", type=int, default=20, help="timed frames of the 5 000 and 20 000-point cases")
     parser.add_argument("--warmup", type=int, default=5)
     parser.add_argument("--cases", nargs="+", choices=CASES, default=list(CASES))
     args = parser.parse_args()
     for name in args.cases:
-        frames = args.large_frames if name == "one_piece_20k" else args.frames
+        frames = args.large_frames if name in LARGE else args.frames
         for row in compare(name, frames, args.warmup):
             print(json.dumps(row), flush=True)
         print(json.dumps(call_profile(name, max(5, frames // 4))), flush=True)
