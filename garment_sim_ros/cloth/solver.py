@@ -19,7 +19,8 @@ held still by the length correction or a contact ends the step with zero velocit
 Per substep (memo §3 steps 2–5): forces, explicit step, attached points set to their
 segment, Provot length correction (each iteration followed by the tethers, ``cloth.model``) with
 contact handling after its first iteration, velocity from the corrected positions, full collision
-handling; then (beyond the memo) strain limiting as the substep's last projection.
+handling; then (beyond the memo) strain limiting as the substep's last projection. With volumes, ``advance`` runs the
+substeps in one compiled call (``cloth.fused``, the same kernels in the same order); its loop is the reference.
 
 Strain limiting after collision. Collision handling comes after the length correction and moves
 points out of the volumes one by one, so it stretches the springs between a point it moved and
