@@ -21,11 +21,13 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 
 import numpy as np
 from llvmlite import ir
 from numba import njit, types
 from numba.core import cgutils
+from numba.core.errors import NumbaPerformanceWarning
 from numba.extending import intrinsic
 
 from ..collision import broad_phase, crossing
@@ -264,3 +266,7 @@ def _parallel_chain():
 
 
 run_substeps_parallel = _parallel_chain()
+# The twins have no loop of their own to spread (their threads are the drivers'): numba's note saying so at
+# their compilation is expected, not a lost optimisation.
+warnings.filterwarnings("ignore", r"(?s)The keyword argument 'parallel=True' was specified.*cloth[/\\]fused\.py",
+                        NumbaPerformanceWarning)
