@@ -1,8 +1,9 @@
 """The fused frame (issue 15): one compiled call runs all of a frame's substeps of ``GarmentSolver.advance``.
 
-The reference path (``GarmentSolver.advance``'s loop) makes about 40 kernel calls a substep from Python,
-each paying numba's dispatch (typing its arguments, ~1-3 us) and the solver's own bookkeeping: for the
-one-piece most of a frame's time (docs/benchmarks.md, "Where a frame goes"). Here the same kernels
+The reference path (``GarmentSolver.advance``'s loop) makes 15 (memo preset) to 56 (a real clip, the strain
+limiting on) kernel calls a substep from Python, each paying numba's dispatch (typing its arguments, 0.3-8 us
+measured) and the solver's own checks and bookkeeping: 11-19 % of the one-piece's solver time
+(docs/benchmarks.md, "The fused frame"). Here the same kernels
 (``cloth.kernels``, ``collision.kernels``, ``collision.crossing``, ``collision.broad_phase``,
 ``motion_constraints.limit_distance``) are called in the same order with the same arguments from one
 numba function, so the garment comes out the same, bit for bit (``test/test_fused.py``), with no Python
