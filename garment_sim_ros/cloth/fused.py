@@ -1,8 +1,8 @@
 """The fused frame (issue 15): one compiled call runs all of a frame's substeps of ``GarmentSolver.advance``.
 
 The reference path (``GarmentSolver.advance``'s loop) makes 15 (memo preset) to 56 (a real clip, the strain
-limiting on) kernel calls a substep from Python, each paying numba's dispatch (typing its arguments, 0.3-8 us
-measured) and the solver's own checks and bookkeeping: 11-19 % of the one-piece's solver time
+limiting on) kernel calls a substep from Python, each paying numba's dispatch (typing its arguments, under
+1 us) and the solver's own checks and bookkeeping: 16-20 % of the one-piece's step
 (docs/benchmarks.md, "The fused frame"). Here the same kernels
 (``cloth.kernels``, ``collision.kernels``, ``collision.crossing``, ``collision.broad_phase``,
 ``motion_constraints.limit_distance``) are called in the same order with the same arguments from one
