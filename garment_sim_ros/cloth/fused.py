@@ -14,8 +14,9 @@ the call, by the reference path's own functions, once per substep or frame.
 The collision drivers run their ``prange`` twins when the collider does (``Collider.parallel``): the points
 spread over numba's threads inside the call, as they do on the reference path.
 
-Falls back to the reference loop (``usable``): a garment without volumes (nothing to fuse but the
-integration, and no test covers it) and a collider with its broad phase switched off (a test-only switch).
+Falls back to the reference loop (``usable``): a garment without volumes (the kernel takes the collider's
+arrays and scratch; without collision a substep is 4-6 calls, little to save) and a collider with its broad
+phase switched off (a test-only switch the kernel does not carry).
 """
 
 from __future__ import annotations
