@@ -18,7 +18,7 @@ from garment_sim_ros.bench_report import figures, table
 from garment_sim_ros.benchmarking import load_average
 
 HERE = Path(__file__).resolve().parent
-BENCHES = ("roofline", "table1", "scale", "publish", "drape", "crowd", "tf_throughput", "rerun_rate", "peers")
+BENCHES = ("roofline", "table1", "scale", "publish", "drape", "crowd", "tf_throughput", "rerun_rate", "peers", "fused")
 
 
 def main() -> int:

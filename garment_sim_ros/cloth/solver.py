@@ -19,7 +19,8 @@ held still by the length correction or a contact ends the step with zero velocit
 Per substep (memo §3 steps 2–5): forces, explicit step, attached points set to their
 segment, Provot length correction (each iteration followed by the tethers, ``cloth.model``) with
 contact handling after its first iteration, velocity from the corrected positions, full collision
-handling; then (beyond the memo) strain limiting as the substep's last projection.
+handling; then (beyond the memo) strain limiting as the substep's last projection. With volumes, ``advance`` runs the
+substeps in one compiled call (``cloth.fused``, the same kernels in the same order); its loop is the reference.
 
 Strain limiting after collision. Collision handling comes after the length correction and moves
 points out of the volumes one by one, so it stretches the springs between a point it moved and
@@ -49,7 +50,7 @@ import numpy as np
 
 from ..params import DEFAULT_PARAMS, SolverParams
 from ..transforms import quat_conjugate, quat_multiply, transform_points, yaw_quat
-from . import kernels
+from . import fused, kernels
 from .frame import ClothState, FrameInput, FrameReport
 from .model import BEND, SHEAR, STRUCTURAL, ClothModel
 from .motion_constraints import SkinBinding, limit_distance
@@ -181,6 +182,7 @@ class GarmentSolver:
         self._edge_rest = np.ascontiguousarray(model.rest_lengths[model.spring_kinds == STRUCTURAL])
         self._triangles = np.ascontiguousarray(model.triangles, dtype=np.int64)
         self.collider = None
+        self.use_fused = True  # the fused frame (``cloth.fused``) where the configuration allows; off: the loop below
         self.skin: SkinBinding | None = None  # bound by ``reset`` (motion constraints, ``max_distance``)
         if volumes is not None and len(volumes):
             from ..collision.collider import Collider
@@ -322,7 +324,11 @@ class GarmentSolver:
             skinned0, skinned1 = self.skin.positions(*poses0), self.skin.positions(*poses1)
         x, v = state.positions, state.velocities
         clock = time.perf_counter
-        for k in range(count):
+        run_fused = self.use_fused and fused.usable(self)
+        if run_fused:  # the same substeps in one compiled call (``cloth.fused``)
+            fused.advance_substeps(self, frame, count, h, v0, a0, yaw_rate, yaw_acc, yaw_step, targets0, targets1,
+                                   (skinned0, skinned1) if constrained else None, report)
+        for k in range(0 if run_fused else count):  # the reference path
             f0, f1 = k / count, (k + 1) / count
             mid = 0.5 * (f0 + f1) * dt  # body time since t0 at the substep's middle
             tic = clock()

@@ -50,14 +50,20 @@ _SETTLE_PASSES = 4  # extra static passes for a point hit by a volume (overlappi
 def serial_and_parallel(driver):
     """``driver`` (a loop over points with ``prange``) compiled twice: serial, where numba's ``prange``
     is ``range``, and with the points spread over numba's threads. One source for both, so the two
-    cannot drift apart. The parallel one is compiled from a twin of the function with its own name:
-    numba's on-disk cache (``cache=True``) keys a function by its qualified name and line, and two
-    dispatchers of one function would overwrite each other's cache entries."""
-    twin = types.FunctionType(driver.__code__, driver.__globals__, driver.__name__ + "_parallel",
-                              driver.__defaults__, driver.__closure__)
-    twin.__qualname__ = driver.__qualname__ + "_parallel"
-    twin.__doc__ = driver.__doc__
-    return kernel(driver), njit(cache=True, parallel=True)(twin)
+    cannot drift apart."""
+    return kernel(driver), parallel_twin(driver)
+
+
+def parallel_twin(function, namespace=None):
+    """``function`` compiled with numba's threads, from a twin of it with its own name: numba's on-disk
+    cache (``cache=True``) keys a function by its qualified name and line, and two dispatchers of one
+    function would overwrite each other's cache entries. ``namespace``: the globals the twin's calls
+    resolve in (default: the function's own)."""
+    twin = types.FunctionType(function.__code__, function.__globals__ if namespace is None else namespace,
+                              function.__name__ + "_parallel", function.__defaults__, function.__closure__)
+    twin.__qualname__ = function.__qualname__ + "_parallel"
+    twin.__doc__ = function.__doc__
+    return njit(cache=True, parallel=True)(twin)
 
 
 # ----------------------------------------------------------------------------- drivers over points
@@ -326,7 +332,9 @@ def handle_edges(arrays, xs, x, inv_mass, edges, rest_lengths, edge_pinch_depth)
 
 @kernel
 def penetration_depths(arrays, x, out):
-    """Depth of every point inside its deepest volume at the end poses (see ``penetration_depth``), 0 outside."""
+    """Depth of every point inside its deepest volume at the end poses (see ``penetration_depth``), 0 outside,
+    into ``out`` (N,) m. Returns nothing: compiled without numba's runtime, a returned array would carry no
+    reference of its own, and a compiled caller dropping it would free the caller's array (``cloth.fused``)."""
     vol = VolumeArrays(*arrays)
     kinds, radii, cuts, pos, rot = vol.kinds, vol.radii, vol.cuts, vol.pos1, vol.rot1
     for i in range(x.shape[0]):
@@ -335,4 +343,3 @@ def penetration_depths(arrays, x, out):
             lx, ly, lz = to_local(pos, rot, v, x[i, 0], x[i, 1], x[i, 2])
             deepest = max(deepest, penetration_depth(kinds[v], radii, cuts, v, lx, ly, lz))
         out[i] = deepest
-    return out
