@@ -14,7 +14,7 @@ Which pairs: those disjoint in the pose the body was fitted on (``VolumeSet.rest
 standing pose) and on different skeleton frames. Pairs overlapping at rest overlap by design at a joint
 and are left as they are; pairs disjoint at rest only overlap when pressed together.
 
-Where (``_place``), per pair (a, b) overlapping now, at the substep's end poses: along the line joining
+Where (``press``), per pair (a, b) overlapping now, at the substep's end poses: along the line joining
 the nearest points c_a, c_b of the two volumes' axes (their local z segments), the volumes reach e_a from
 c_a and e_b from c_b (their surfaces), and overlap by o = e_a + e_b - |c_b - c_a| > 0. The plane is square
 to that line and divides the axes' distance in proportion to the reaches (the thicker part gives way more,

@@ -218,6 +218,8 @@ def penetration_depth(kind, radii, cuts, planes, v, x, y, z):
     planes are joins to neighbouring volumes, not surfaces, so depth is measured to the
     curved surface only. An upper bound makes "deeper than 1 mm" assertions conservative.
     """
+    if planes[v, 0, 3] == math.inf:  # not pressed: most volumes, most of the time
+        return _shape_depth(kind, radii, cuts, v, x, y, z)
     gap = plane_gap(planes, v, x, y, z)[0]
     if gap <= 0.0:
         return 0.0
@@ -313,19 +315,25 @@ def entry(kind, radii, cuts, planes, v, x0, y0, z0, x1, y1, z1):
     The kept part of the segment is [t_in, t_out] (``clip_to_planes``): a curved entry beyond a plane is
     none; a segment that starts beyond a plane and is inside the shape where it crosses onto the kept side
     enters through the plane (a point that was beyond the pressed face and is now inside)."""
+    if planes[v, 0, 3] == math.inf:  # not pressed
+        return _shape_entry(kind, radii, cuts, v, x0, y0, z0, x1, y1, z1), -1
     t_in, t_out, face = clip_to_planes(planes, v, x0, y0, z0, x1, y1, z1)
     if t_in > t_out:
         return -1.0, -1
-    if kind == CAPSULE:
-        alpha = capsule_entry(radii, v, x0, y0, z0, x1, y1, z1)
-    else:
-        alpha = quadric_entry(kind, radii, cuts, v, x0, y0, z0, x1, y1, z1)
+    alpha = _shape_entry(kind, radii, cuts, v, x0, y0, z0, x1, y1, z1)
     if alpha >= t_in:
         return (alpha, -1) if alpha <= t_out else (-1.0, -1)
     if face >= 0 and inside_shape(kind, radii, cuts, v, x0 + t_in * (x1 - x0), y0 + t_in * (y1 - y0),
                                   z0 + t_in * (z1 - z0)):
         return t_in, face
     return -1.0, -1
+
+
+@kernel
+def _shape_entry(kind, radii, cuts, v, x0, y0, z0, x1, y1, z1):
+    if kind == CAPSULE:
+        return capsule_entry(radii, v, x0, y0, z0, x1, y1, z1)
+    return quadric_entry(kind, radii, cuts, v, x0, y0, z0, x1, y1, z1)
 
 
 @kernel
