@@ -141,6 +141,11 @@ PARAMETERS: tuple[Param, ...] = (
     Param("edge_pinch_depth", 0.0, "m", 0.0, 0.1,
           "opt-in: an edge a limb cuts stays cut when moving it out would put an end deeper than this into "
           "another volume (a thigh against the belly); 0: off, edges always move out"),
+    Param("contact_planes", 1, "1", 0, 1,
+          "1: body volumes disjoint in the canonical pose that overlap in motion (a forearm on the hip) meet on "
+          "a contact plane, the cloth between them on it (pressed flesh, ``collision.contact_planes``); 0: off"),
+    Param("press_clearance", 0.015, "m", 0.0, 0.1,
+          "a contact plane keeps at least this distance from either pressed volume's bone (room for the cloth)"),
     Param("collision_mode", "adaptive", "", None, None,
           "adaptive (memo §6.2.1), static only or dynamic only", COLLISION_MODES),
     # layers (garments worn over each other)
@@ -187,6 +192,8 @@ class SolverParams:
     max_distance: float
     pinch_depth: float
     edge_pinch_depth: float
+    contact_planes: int
+    press_clearance: float
     collision_mode: str
     layer_thickness: float
 
@@ -225,6 +232,7 @@ PRESETS: dict[str, SolverParams] = {
         substep=0.04 / 6,
         strain_limit_iterations=0,  # beyond the memo: its experiments had neither
         tethers=0,
+        contact_planes=0,  # beyond the memo: its volumes are rigid
     ),
 }
 

@@ -3,11 +3,14 @@ broad phase never rejects a pair the exact handling would hit (brute force, ever
 parallel ``handle_all`` gives the serial results bit for bit, and the broad phase as a whole changes
 no result over several substeps of moving volumes (cache carried along)."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from garment_sim_ros.collision import broad_phase, geometry
 from garment_sim_ros.collision.collider import PARALLEL_MIN_POINTS, Collider
+from garment_sim_ros.collision.volume_arrays import no_planes
 from garment_sim_ros.collision.volumes import CAPSULE, ELLIPSOID, SPHERE, Volume, VolumeSet
 from garment_sim_ros.transforms import quat_from_axis_angle
 
@@ -29,25 +32,36 @@ def _local_arrays(volumes):
     return kinds, radii, cuts, boxes
 
 
+def _some_planes(n_volumes, rng):
+    """Two contact planes per volume (``VolumeArrays.planes``), random normals, a few cm off the centre."""
+    planes = no_planes(n_volumes)
+    for v in range(n_volumes):
+        for k in range(2):
+            normal = rng.normal(size=3)
+            planes[v, k, :3] = normal / np.linalg.norm(normal)
+            planes[v, k, 3] = rng.uniform(0.0, 0.05)
+    return planes
+
+
+@pytest.mark.parametrize("pressed", [False, True])
 @pytest.mark.parametrize("index", range(len(VOLUMES)))
-def test_local_box_never_rejects_a_hit(index):
+def test_local_box_never_rejects_a_hit(index, pressed):
     """Random local segments around the volume (many grazing it): whenever the exact static test of the
     end, the dynamic entry along the segment, or the edge handling's deepest point finds the volume, the
-    box test must not reject the segment; and it does reject most segments that miss."""
+    box test must not reject the segment; and it does reject most segments that miss. ``pressed``: the
+    volumes cut by contact planes, which the box ignores (a cut volume lies in the uncut one)."""
     kinds, radii, cuts, boxes = _local_arrays(VOLUMES)
     v, kind = index, int(kinds[index])
     rng = np.random.default_rng(index)
+    planes = _some_planes(len(VOLUMES), rng) if pressed else no_planes(len(VOLUMES))
     extent = np.array([boxes[v, 3], boxes[v, 4], boxes[v, 5]]) * 1.6
     hits = rejected_misses = misses = 0
     for _ in range(6000):
         a = rng.uniform(-extent, extent)
         b = a + rng.normal(0.0, 0.06, 3) if rng.random() < 0.7 else rng.uniform(-extent, extent)
-        inside = geometry.static_projection(kind, radii, cuts, v, *b)[0]
-        if kind == CAPSULE:
-            alpha = geometry.capsule_entry(radii, v, *a, *b)
-        else:
-            alpha = geometry.quadric_entry(kind, radii, cuts, v, *a, *b)
-        t, deep = geometry.deepest_on_segment(kind, radii, cuts, v, *a, *b)
+        inside = geometry.static_projection(kind, radii, cuts, planes, v, *b)[0]
+        alpha = geometry.entry(kind, radii, cuts, planes, v, *a, *b)[0]
+        t, deep = geometry.deepest_on_segment(kind, radii, cuts, planes, v, *a, *b)
         hit = inside or alpha >= 0.0 or deep
         rejects = broad_phase.segment_misses_box(boxes, v, *a, *b)
         if hit:
@@ -81,9 +95,18 @@ def _moving_scene(seed, n_points):
     return pos0, rot0, pos1, rot1, x, rng
 
 
-def _run_substeps(seed, n_points, parallel, use_broad_phase, substeps=4, h=0.01):
+def _pressable_volumes():
+    """``VOLUMES`` on frames of their own, apart at rest: every pair that meets is pressed onto a contact plane."""
+    n = len(VOLUMES)
+    rest_positions = np.array([[k, 0.0, 0.0] for k in range(n)], dtype=float)
+    rest_rotations = np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))
+    return VolumeSet(tuple(replace(v, frame=v.name) for v in VOLUMES), (rest_positions, rest_rotations))
+
+
+def _run_substeps(seed, n_points, parallel, use_broad_phase, substeps=4, h=0.01, pressed=False):
     pos0, rot0, pos1, rot1, x, rng = _moving_scene(seed, n_points)
-    collider = Collider(VolumeSet(VOLUMES), n_points, cache_size=2, parallel=parallel)
+    volumes = _pressable_volumes() if pressed else VolumeSet(VOLUMES)
+    collider = Collider(volumes, n_points, cache_size=2, parallel=parallel)
     collider.use_broad_phase = use_broad_phase
     collider.begin_frame(pos0, rot0, pos1, rot1)
     v = np.zeros_like(x)
@@ -98,6 +121,7 @@ def _run_substeps(seed, n_points, parallel, use_broad_phase, substeps=4, h=0.01)
         v = (x - x_start) / h
         collider.handle_contacts(x_start, x, v, inv_mass, h, contacts)
         collider.handle_all(x_start, x, v, inv_mass, h, contacts)
+    assert (collider.pressed_depth > 0.0) == pressed  # the volumes overlap in the scene: pressed when asked
     return x, v, contacts, collider.static_hits, collider.dynamic_hits
 
 
@@ -110,11 +134,13 @@ def test_parallel_handle_all_equals_serial(seed):
         np.testing.assert_array_equal(a, b)
 
 
+@pytest.mark.parametrize("pressed", [False, True])
 @pytest.mark.parametrize("seed", [13, 14])
-def test_broad_phase_changes_nothing_over_substeps(seed):
-    """Reach, local box and bounding-sphere tests on against all of them off, cache carried over substeps."""
-    with_broad = _run_substeps(seed, 1500, parallel=False, use_broad_phase=True)
-    without = _run_substeps(seed, 1500, parallel=False, use_broad_phase=False)
+def test_broad_phase_changes_nothing_over_substeps(seed, pressed):
+    """Reach, local box and bounding-sphere tests on against all of them off, cache carried over substeps;
+    ``pressed``: the volumes that meet cut by contact planes."""
+    with_broad = _run_substeps(seed, 1500, parallel=False, use_broad_phase=True, pressed=pressed)
+    without = _run_substeps(seed, 1500, parallel=False, use_broad_phase=False, pressed=pressed)
     assert with_broad[3] + with_broad[4] > 50
     for name, a, b in zip(("x", "v"), with_broad[:2], without[:2]):
         np.testing.assert_array_equal(a, b, err_msg=name)

@@ -228,8 +228,9 @@ def test_the_targets_table_judges_each_letter_and_asks_less_at_fast_playback():
 # ----------------------------------------------------------------------------- garment-sim evaluate
 
 ROW_KEYS = {"clip", "garment", "speed", "fps", "frames", "bones_frames", "bones_max", "limb_tubes", "legs_off_frames",
-            "deep_frames", "deep_share", "max_depth_mm", "structural_stretch_p99", "structural_stretch_max",
-            "shear_stretch_p99", "shear_stretch_max", "guard_firings", "carried_frames", "targets", "passed", "wall_s"}
+            "deep_frames", "deep_share", "max_depth_mm", "pressed_mm", "structural_stretch_p99",
+            "structural_stretch_max", "shear_stretch_p99", "shear_stretch_max", "guard_firings", "carried_frames",
+            "targets", "passed", "wall_s"}
 
 
 def test_evaluate_json_rows_and_summary_on_a_real_clip():

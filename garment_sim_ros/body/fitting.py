@@ -445,5 +445,7 @@ def fit_body(rest_pose: SkeletonPose, joint_map: Mapping[str, str], detailed: bo
     order = DETAILED_VOLUMES if detailed else BASIC_VOLUMES
     volumes.sort(key=lambda v: order.index(v.name))
     volume_set = VolumeSet(tuple(apply_overrides(volumes, overrides)))
+    rest_frames = [rest_pose.frame(f) for f in volume_set.frames]
+    volume_set = volume_set.at_rest_in(np.array([p for p, _ in rest_frames]), np.array([q for _, q in rest_frames]))
     return Body(volume_set, _measure(fit, volume_set, levels), joint_map, rest_pose, tuple(estimated), narrowed)
 

@@ -77,6 +77,9 @@ class FrameReport:
     collision_s: float = 0.0  # contact + full collision handling (wall time)
     static_hits: int = 0
     dynamic_hits: int = 0
+    # m, the deepest overlap of two body volumes pressed onto a contact plane during the frame (flesh given way,
+    # ``collision.contact_planes``): depth (a) is measured against the volumes as pressed
+    pressed_depth_m: float = 0.0
     max_stretch: float = 0.0  # largest structural/shear length / rest length after the frame
     # the step's guard (``GarmentSolver.advance``): "" (a good step), "restored" (the step went
     # non-finite: the last good state is back) or "refitted" (runaway stretch: the rest shape at the new pose)

@@ -32,7 +32,7 @@ from numba.core import cgutils
 from numba.core.errors import NumbaPerformanceWarning
 from numba.extending import intrinsic
 
-from ..collision import broad_phase, crossing
+from ..collision import broad_phase, contact_planes, crossing
 from ..collision import kernels as collision_kernels
 from ..collision.collider import AXIS_PASSES
 from ..collision.kernels import parallel_twin
@@ -41,6 +41,7 @@ from . import kernels
 from .motion_constraints import limit_distance
 
 _NO_POINTS = np.zeros((0, 3))
+_NO_PAIRS = np.zeros((0, 2), dtype=np.int64)  # contact planes off
 INTEGRATION, CORRECTION, COLLISION, CALL = range(4)  # ``run_substeps``' tick counters
 # the collision drivers the serial chain below calls; the parallel chain (``_parallel_chain``) their twins
 _handle_all, _handle_contacts = collision_kernels.handle_all, collision_kernels.handle_contacts
@@ -101,13 +102,16 @@ def advance_substeps(solver, frame, count: int, h: float, v0, a0, yaw_rate: floa
                 1.0 + params.limit_ratio + params.strain_limit_tolerance, float(solver.STRAIN_LIMIT_UNDONE))
     contact = (collider._eps, collider._friction, collider._c_time, collider._switch_ratio, collider._mode,
                collider._pinch_depth, collider._edge_pinch_depth)
+    pressing = collider._pressable if collider._press else _NO_PAIRS
+    press = (collider._clearance, 2.0 * collider._eps)
     ticks = np.zeros(4, dtype=np.int64)
     tic = time.perf_counter()
-    n_static, n_dynamic = (run_substeps_parallel if collider.parallel else run_substeps)(
+    n_static, n_dynamic, pressed = (run_substeps_parallel if collider.parallel else run_substeps)(
         state.positions, state.velocities, state.contacts, garment, scratch, uniform, frame_velocity, omega,
         fractions, targets0, targets1, skinned0, skinned1, collider._packed, collider._frame_pos,
-        collider._frame_quat, settings, contact, ticks)
+        collider._frame_quat, pressing, press, settings, contact, ticks)
     wall = time.perf_counter() - tic
+    collider.pressed_depth = max(collider.pressed_depth, float(pressed))
     collider.static_hits += int(n_static)
     collider.dynamic_hits += int(n_dynamic)
     if ticks[CALL] <= 0:
@@ -120,12 +124,13 @@ def advance_substeps(solver, frame, count: int, h: float, v0, a0, yaw_rate: floa
 
 @njit(cache=True)
 def run_substeps(x, v, contacts, garment, scratch, uniform, frame_velocity, omega, fractions, targets0, targets1,
-                 skinned0, skinned1, arrays, frame_pos, frame_quat, settings, contact, ticks):
+                 skinned0, skinned1, arrays, frame_pos, frame_quat, pressing, press, settings, contact, ticks):
     """All substeps of a frame, as ``GarmentSolver.advance``'s loop (with a collider) runs them; ``x``, ``v``
     (N, 3) and ``contacts`` in place. Per substep k: ``uniform`` (K, 3) m/s^2, ``frame_velocity`` (K, 3) m/s,
     ``omega`` (K,) rad/s, ``fractions`` (K, 2) of the frame at its ends; the tuples as ``advance_substeps``
-    packs them. Returns (static hits, dynamic hits); a non-finite force sets ``x`` to NaN and stops, as the
-    reference loop does. Adds cycle counts to ``ticks`` (4,): the correction's, the collision's (with the
+    packs them; ``pressing`` the volume pairs that may be pressed together (``Collider``), ``press`` their
+    (clearance, gap) m. Returns (static hits, dynamic hits, deepest overlap pressed m); a non-finite force
+    sets ``x`` to NaN and stops, as the reference loop does. Adds cycle counts to ``ticks`` (4,): the correction's, the collision's (with the
     volumes' poses per substep), the whole call's; the rest of the call is the integration's."""
     start = _cycles()
     (mass, inv_mass, springs, rest, stiffness, damping, attached, tether_anchors, tether_lengths, edges, edge_rest,
@@ -137,6 +142,7 @@ def run_substeps(x, v, contacts, garment, scratch, uniform, frame_velocity, omeg
     vol = VolumeArrays(*arrays)
     n_static = 0
     n_dynamic = 0
+    pressed = 0.0
     for k in range(uniform.shape[0]):
         f0, f1 = fractions[k, 0], fractions[k, 1]
         kernels.accumulate_forces(x, v, mass, springs, rest, stiffness, damping, uniform[k], omega[k], yaw_acc,
@@ -151,6 +157,8 @@ def run_substeps(x, v, contacts, garment, scratch, uniform, frame_velocity, omeg
         broad_phase.interpolate_poses(frame_pos[0], frame_quat[0], frame_pos[1], frame_quat[1], f0, vol.pos0, vol.rot0)
         broad_phase.interpolate_poses(frame_pos[0], frame_quat[0], frame_pos[1], frame_quat[1], f1, vol.pos1, vol.rot1)
         broad_phase.substep_motion(vol.pos0, vol.rot0, vol.pos1, vol.rot1, vol.displacement, vol.chord)
+        if pressing.shape[0] > 0:  # the contact planes of the pressed pairs (``pressing`` (P, 2)) at its end
+            pressed = max(pressed, contact_planes.press(arrays, pressing, press[0], press[1]))
         tac = _cycles()
         ticks[COLLISION] += tac - tic
         for iteration in range(max(1, iterations)):
@@ -180,7 +188,7 @@ def run_substeps(x, v, contacts, garment, scratch, uniform, frame_velocity, omeg
             n_static += s
             n_dynamic += d
     ticks[CALL] += _cycles() - start
-    return n_static, n_dynamic
+    return n_static, n_dynamic, pressed
 
 
 @njit(cache=True)

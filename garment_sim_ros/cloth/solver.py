@@ -376,6 +376,7 @@ class GarmentSolver:
         if collider is not None:
             report.static_hits = collider.static_hits
             report.dynamic_hits = collider.dynamic_hits
+            report.pressed_depth_m = collider.pressed_depth
         self._measure_stretch(report)
         self._guard(report, last_good, frame)
         self.state.time = frame.t1

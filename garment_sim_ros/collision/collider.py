@@ -16,9 +16,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..params import DEFAULT_PARAMS, SolverParams
-from . import broad_phase, crossing, kernels
+from . import broad_phase, contact_planes, crossing, kernels
 from .response import MODE_ADAPTIVE, MODE_DYNAMIC, MODE_STATIC
-from .volume_arrays import VolumeArrays
+from .volume_arrays import VolumeArrays, no_planes
 from .volumes import VolumeSet
 
 # ``parallel=None``: handle_all and handle_contacts spread the points over numba's threads from this many
@@ -46,6 +46,8 @@ class Collider:
         self.cache_size = int(cache_size)
         n_volumes = len(volumes)
         self.arrays = VolumeArrays.at_rest(volumes)  # the kernels' view; poses at the substep's ends
+        self._pressable = contact_planes.pressable_pairs(volumes)  # (K, 2) pairs that may be pressed together
+        self.pressed_depth = 0.0  # m, the deepest overlap of two volumes pressed onto a contact plane this frame
         # as the kernels take them from Python (a plain tuple: see ``collision.kernels``); and with every
         # broad-phase test passing, the same poses
         self._packed, self._packed_unbounded = tuple(self.arrays), tuple(self.arrays.unbounded())
@@ -81,6 +83,10 @@ class Collider:
         self._c_time = float(params.contact_time_fraction)
         self._switch_ratio = float(params.dynamic_switch_ratio)
         self._mode = _MODES[params.collision_mode]
+        self._press = bool(params.contact_planes) and len(self._pressable) > 0
+        self._clearance = float(params.press_clearance)
+        if not self._press:
+            self.arrays.planes[...] = no_planes(len(self.volumes))
 
     def begin_frame(self, pos0, rot0, pos1, rot1) -> None:
         """Volume poses at the frame's start and end: (V, 3) positions, (V, 4) xyzw quaternions."""
@@ -100,6 +106,7 @@ class Collider:
             self._frame_quat[k] = q / norms[:, None]
         self.static_hits = 0
         self.dynamic_hits = 0
+        self.pressed_depth = 0.0
         self._frame_started = True
         self.begin_substep(0.0, 1.0)
 
@@ -115,6 +122,9 @@ class Collider:
         broad_phase.interpolate_poses(a_pos, a_quat, b_pos, b_quat, float(f0), vol.pos0, vol.rot0)
         broad_phase.interpolate_poses(a_pos, a_quat, b_pos, b_quat, float(f1), vol.pos1, vol.rot1)
         broad_phase.substep_motion(vol.pos0, vol.rot0, vol.pos1, vol.rot1, vol.displacement, vol.chord)
+        if self._press:  # the pressed volumes' planes at the substep's end, carried over it in their local frames
+            deepest = contact_planes.press(self._packed, self._pressable, self._clearance, 2.0 * self._eps)
+            self.pressed_depth = max(self.pressed_depth, deepest)
 
     # ------------------------------------------------------------------ handling
     # Each public call checks its arguments, then runs its kernel (``_points``, ``_contacts``, ``_edges``,

@@ -27,9 +27,8 @@ from __future__ import annotations
 import math
 
 from .geometry import (
-    capsule_entry,
+    entry,
     kernel,
-    quadric_entry,
     rotate,
     static_projection,
     to_local,
@@ -37,7 +36,6 @@ from .geometry import (
 )
 from .response import depth_elsewhere, surface_velocity
 from .volume_arrays import VolumeArrays
-from .volumes import CAPSULE
 
 # Barycentric and segment-parameter slack of the crossing test: a bone through a shared edge or
 # vertex exactly must not slip between the two triangles, so boundaries count as crossed.
@@ -181,10 +179,7 @@ def _room(vol, v, lx, ly, lz, ux, uy, length):
             continue
         px, py, pz = to_local(pos, rot, o, ax, ay, az)
         qx, qy, qz = to_local(pos, rot, o, bx, by, bz)
-        if kinds[o] == CAPSULE:
-            alpha = capsule_entry(radii, o, px, py, pz, qx, qy, qz)
-        else:
-            alpha = quadric_entry(kinds[o], radii, cuts, o, px, py, pz, qx, qy, qz)
+        alpha = entry(kinds[o], radii, cuts, vol.planes, o, px, py, pz, qx, qy, qz)[0]
         if alpha >= 0.0:
             room = min(room, alpha * length)
     return room
@@ -213,7 +208,8 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
         short = eps - (lx * ux + ly * uy)
         if short > 0.0:
             lx, ly = lx + short * ux, ly + short * uy
-            inside, sx, sy, sz, nx, ny, nz = static_projection(vol.kinds[v], vol.radii, vol.cuts, v, lx, ly, lz)
+            inside, sx, sy, sz, nx, ny, nz = static_projection(vol.kinds[v], vol.radii, vol.cuts, vol.planes, v,
+                                                                 lx, ly, lz)
             if inside:
                 out = math.sqrt((sx - lx) ** 2 + (sy - ly) ** 2) + eps
                 radial = math.sqrt(lx * lx + ly * ly)  # >= eps: it is on the side now

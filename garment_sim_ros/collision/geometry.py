@@ -2,9 +2,11 @@
 projection out of a volume, penetration depth and where a straight path enters a volume.
 
 Volumes as in ``volumes.py`` (kinds, radii (V, 3) m, cuts (V, 2) m), posed by positions (V, 3) m and
-rotation matrices (V, 3, 3) (local -> simulation frame). One point against one volume is
-``collision.response``; the drivers over points and edges ``collision.kernels``; the broad phase
-``collision.broad_phase``; the bone crossing ``collision.crossing``.
+rotation matrices (V, 3, 3) (local -> simulation frame), and cut by their contact planes (``planes``
+(V, P, 4), local, ``collision.contact_planes``): a point beyond one of a volume's planes is not inside
+it, and a point inside that is nearer a plane than the curved surface leaves through the plane. One
+point against one volume is ``collision.response``; the drivers over points and edges
+``collision.kernels``; the broad phase ``collision.broad_phase``; the bone crossing ``collision.crossing``.
 """
 
 from __future__ import annotations
@@ -53,6 +55,49 @@ def rotate(rot, v, lx, ly, lz):
     return (rot[v, 0, 0] * lx + rot[v, 0, 1] * ly + rot[v, 0, 2] * lz,
             rot[v, 1, 0] * lx + rot[v, 1, 1] * ly + rot[v, 1, 2] * lz,
             rot[v, 2, 0] * lx + rot[v, 2, 1] * ly + rot[v, 2, 2] * lz)
+
+
+# ----------------------------------------------------------------------------- contact planes
+
+@kernel
+def plane_gap(planes, v, x, y, z):
+    """``(gap, k)``: how far (m) the local point is on the kept side of volume v's nearest contact plane k;
+    negative beyond it (the most negative of the planes it is beyond); ``(inf, -1)`` without planes.
+    A plane row is (unit normal out of the kept side, offset): kept where n . p <= offset; the used rows
+    come first, an offset of +inf ends them (``contact_planes``)."""
+    gap, nearest = math.inf, -1
+    for k in range(planes.shape[1]):
+        offset = planes[v, k, 3]
+        if offset == math.inf:
+            break
+        g = offset - (planes[v, k, 0] * x + planes[v, k, 1] * y + planes[v, k, 2] * z)
+        if g < gap:
+            gap, nearest = g, k
+    return gap, nearest
+
+
+@kernel
+def clip_to_planes(planes, v, x0, y0, z0, x1, y1, z1):
+    """``(t_in, t_out, k)``: the part [t_in, t_out] of the segment p0 -> p1 (t in [0, 1]) on the kept side of
+    every contact plane of volume v (Cyrus-Beck), and the plane k it enters through at t_in (-1: it starts on
+    the kept side). Empty when t_in > t_out."""
+    t_in, t_out, face = 0.0, 1.0, -1
+    for k in range(planes.shape[1]):
+        offset = planes[v, k, 3]
+        if offset == math.inf:
+            break
+        nx, ny, nz = planes[v, k, 0], planes[v, k, 1], planes[v, k, 2]
+        f0 = nx * x0 + ny * y0 + nz * z0 - offset
+        f1 = nx * x1 + ny * y1 + nz * z1 - offset
+        if f0 > 0.0:
+            if f1 > 0.0:
+                return 2.0, -1.0, -1
+            t = f0 / (f0 - f1)
+            if t > t_in:
+                t_in, face = t, k
+        elif f1 > 0.0:
+            t_out = min(t_out, f0 / (f0 - f1))
+    return t_in, t_out, face
 
 
 # ----------------------------------------------------------------------------- geometry
@@ -107,15 +152,32 @@ def _unit_gradient(ax, ay, az, x, y, z):
 
 
 @kernel
-def static_projection(kind, radii, cuts, v, x, y, z):
+def static_projection(kind, radii, cuts, planes, v, x, y, z):
     """Static handling geometry (memo Eq. 6-1, 6-3, 6-4) in the local frame.
 
     Returns ``(inside, sx, sy, sz, nx, ny, nz)``: whether the point is inside the volume and,
     if so, the surface point it is moved to (without eps) and the unit outward normal there.
-    Sphere: radially from the centre. Ellipsoid: z kept, (x, y) scaled onto the cross-section
-    ellipse at that z, only where ``cut[0] <= z <= cut[1]``. Capsule: along the exact distance
-    gradient, i.e. radially from the nearest point of the tapered axis.
+    A point beyond a contact plane is not inside; one inside that is nearer a contact plane than the
+    curved surface point below goes onto the plane, along its normal (pressed flesh: the body there is
+    the plane). Else: sphere: radially from the centre. Ellipsoid: z kept, (x, y) scaled onto the
+    cross-section ellipse at that z, only where ``cut[0] <= z <= cut[1]``. Capsule: along the exact
+    distance gradient, i.e. radially from the nearest point of the tapered axis.
     """
+    inside, sx, sy, sz, nx, ny, nz = _shape_projection(kind, radii, cuts, v, x, y, z)
+    if not inside or planes[v, 0, 3] == math.inf:
+        return inside, sx, sy, sz, nx, ny, nz
+    gap, k = plane_gap(planes, v, x, y, z)
+    if gap < 0.0:
+        return False, x, y, z, nx, ny, nz
+    if gap * gap < (sx - x) ** 2 + (sy - y) ** 2 + (sz - z) ** 2:
+        px, py, pz = planes[v, k, 0], planes[v, k, 1], planes[v, k, 2]
+        return True, x + gap * px, y + gap * py, z + gap * pz, px, py, pz
+    return True, sx, sy, sz, nx, ny, nz
+
+
+@kernel
+def _shape_projection(kind, radii, cuts, v, x, y, z):
+    """``static_projection`` of the uncut shape (no contact planes)."""
     if kind == SPHERE:
         r = radii[v, 0]
         d, nx, ny, nz = _sphere_sdf(r, x, y, z)
@@ -145,9 +207,10 @@ def static_projection(kind, radii, cuts, v, x, y, z):
 
 
 @kernel
-def penetration_depth(kind, radii, cuts, v, x, y, z):
+def penetration_depth(kind, radii, cuts, planes, v, x, y, z):
     """Depth (m) of a local point inside the volume, 0 outside.
 
+    With contact planes: 0 beyond one, else at most the distance to the nearest (the volume as pressed).
     Sphere and capsule: exact. Ellipsoid (inside and within the cut): an upper bound of the
     exact distance to the ellipsoid's surface, the smallest of the distances to three surface
     points: the static projection (cross-section), the radial one from the centre, and the
@@ -155,8 +218,19 @@ def penetration_depth(kind, radii, cuts, v, x, y, z):
     planes are joins to neighbouring volumes, not surfaces, so depth is measured to the
     curved surface only. An upper bound makes "deeper than 1 mm" assertions conservative.
     """
+    if planes[v, 0, 3] == math.inf:  # not pressed: most volumes, most of the time
+        return _shape_depth(kind, radii, cuts, v, x, y, z)
+    gap = plane_gap(planes, v, x, y, z)[0]
+    if gap <= 0.0:
+        return 0.0
+    return min(gap, _shape_depth(kind, radii, cuts, v, x, y, z))
+
+
+@kernel
+def _shape_depth(kind, radii, cuts, v, x, y, z):
+    """``penetration_depth`` of the uncut shape (no contact planes)."""
     if kind == ELLIPSOID:
-        inside, sx, sy, sz, nx, ny, nz = static_projection(kind, radii, cuts, v, x, y, z)
+        inside, sx, sy, sz, nx, ny, nz = _shape_projection(kind, radii, cuts, v, x, y, z)
         if not inside:
             return 0.0
         ax, ay, az = radii[v, 0], radii[v, 1], radii[v, 2]
@@ -165,7 +239,7 @@ def penetration_depth(kind, radii, cuts, v, x, y, z):
         if q > TINY:
             best = min(best, math.sqrt(x * x + y * y + z * z) * (1.0 / q - 1.0))
         gx, gy, gz = _unit_gradient(ax, ay, az, x, y, z)
-        t = _ray_exit(ax, ay, az, x, y, z, gx, gy, gz)
+        t = ray_exit(ax, ay, az, x, y, z, gx, gy, gz)
         if t >= 0.0:
             best = min(best, t)
         return best
@@ -177,7 +251,7 @@ def penetration_depth(kind, radii, cuts, v, x, y, z):
 
 
 @kernel
-def _ray_exit(ax, ay, az, x, y, z, dx, dy, dz):
+def ray_exit(ax, ay, az, x, y, z, dx, dy, dz):
     """Positive parameter where the ray (x, y, z) + t d leaves the quadric, from inside; -1 if none."""
     qa = (dx / ax) ** 2 + (dy / ay) ** 2 + (dz / az) ** 2
     qb = 2.0 * (x * dx / (ax * ax) + y * dy / (ay * ay) + z * dz / (az * az))
@@ -220,6 +294,46 @@ def quadric_entry(kind, radii, cuts, v, x0, y0, z0, x1, y1, z1):
         if z < cuts[v, 0] or z > cuts[v, 1]:
             return -1.0
     return alpha
+
+
+@kernel
+def inside_shape(kind, radii, cuts, v, x, y, z):
+    """Whether the local point is inside the uncut shape (within an ellipsoid's cut)."""
+    if kind == CAPSULE:
+        return capsule_sdf(radii[v, 0], radii[v, 1], radii[v, 2], x, y, z)[0] < 0.0
+    if kind == ELLIPSOID and (z < cuts[v, 0] or z > cuts[v, 1]):
+        return False
+    return (x / radii[v, 0]) ** 2 + (y / radii[v, 1]) ** 2 + (z / radii[v, 2]) ** 2 < 1.0
+
+
+@kernel
+def entry(kind, radii, cuts, planes, v, x0, y0, z0, x1, y1, z1):
+    """``(alpha, face)``: the first alpha in [0, 1] where the local segment p0 -> p1 enters the volume as
+    its contact planes cut it, and through which face: -1 the curved surface (``quadric_entry``,
+    ``capsule_entry``), k its contact plane k. ``(-1, -1)`` when it does not (or starts inside).
+
+    The kept part of the segment is [t_in, t_out] (``clip_to_planes``): a curved entry beyond a plane is
+    none; a segment that starts beyond a plane and is inside the shape where it crosses onto the kept side
+    enters through the plane (a point that was beyond the pressed face and is now inside)."""
+    if planes[v, 0, 3] == math.inf:  # not pressed
+        return _shape_entry(kind, radii, cuts, v, x0, y0, z0, x1, y1, z1), -1
+    t_in, t_out, face = clip_to_planes(planes, v, x0, y0, z0, x1, y1, z1)
+    if t_in > t_out:
+        return -1.0, -1
+    alpha = _shape_entry(kind, radii, cuts, v, x0, y0, z0, x1, y1, z1)
+    if alpha >= t_in:
+        return (alpha, -1) if alpha <= t_out else (-1.0, -1)
+    if face >= 0 and inside_shape(kind, radii, cuts, v, x0 + t_in * (x1 - x0), y0 + t_in * (y1 - y0),
+                                  z0 + t_in * (z1 - z0)):
+        return t_in, face
+    return -1.0, -1
+
+
+@kernel
+def _shape_entry(kind, radii, cuts, v, x0, y0, z0, x1, y1, z1):
+    if kind == CAPSULE:
+        return capsule_entry(radii, v, x0, y0, z0, x1, y1, z1)
+    return quadric_entry(kind, radii, cuts, v, x0, y0, z0, x1, y1, z1)
 
 
 @kernel
@@ -278,8 +392,11 @@ def capsule_entry(radii, v, x0, y0, z0, x1, y1, z1):
 
 
 @kernel
-def surface_at(kind, radii, v, x, y, z):
-    """Closest-surface point and unit normal for a point on (or within tolerance of) the surface."""
+def surface_at(kind, radii, planes, v, face, x, y, z):
+    """Closest-surface point and unit normal for a point on (or within tolerance of) the surface, on its
+    curved part (``face`` -1) or on contact plane ``face`` (``entry``)."""
+    if face >= 0:
+        return x, y, z, planes[v, face, 0], planes[v, face, 1], planes[v, face, 2]
     if kind == CAPSULE:
         d, nx, ny, nz = capsule_sdf(radii[v, 0], radii[v, 1], radii[v, 2], x, y, z)
         return x - d * nx, y - d * ny, z - d * nz, nx, ny, nz
@@ -288,13 +405,22 @@ def surface_at(kind, radii, v, x, y, z):
 
 
 @kernel
-def deepest_on_segment(kind, radii, cuts, v, ax, ay, az, bx, by, bz):
+def deepest_on_segment(kind, radii, cuts, planes, v, ax, ay, az, bx, by, bz):
     """Where the segment a -> b (local frame) goes deepest into volume v: ``(t, inside)``.
 
     Ellipsoid and sphere: the point nearest the centre in coordinates scaled by the radii (exact);
     capsule: the minimum of the signed distance along the segment (convex) by golden-section search.
-    Outside the cut (a join to the neighbouring volume) is not inside.
+    Outside the cut (a join to the neighbouring volume) is not inside, nor beyond a contact plane (that
+    deepest point of the uncut shape is then pressed away).
     """
+    t, inside = _deepest_in_shape(kind, radii, cuts, v, ax, ay, az, bx, by, bz)
+    if inside and planes[v, 0, 3] != math.inf:
+        inside = plane_gap(planes, v, ax + t * (bx - ax), ay + t * (by - ay), az + t * (bz - az))[0] > 0.0
+    return t, inside
+
+
+@kernel
+def _deepest_in_shape(kind, radii, cuts, v, ax, ay, az, bx, by, bz):
     dx, dy, dz = bx - ax, by - ay, bz - az
     if kind == CAPSULE:
         t = capsule_minimum(radii[v, 0], radii[v, 1], radii[v, 2], ax, ay, az, dx, dy, dz, 0.0, 1.0,

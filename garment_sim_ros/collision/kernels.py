@@ -265,7 +265,8 @@ def handle_edges(arrays, xs, x, inv_mass, edges, rest_lengths, edge_pinch_depth)
     leg through the edges left (README, "Real motion"). Returns the number of edges moved.
     """
     vol = VolumeArrays(*arrays)
-    kinds, radii, cuts, bounding_radii, boxes = vol.kinds, vol.radii, vol.cuts, vol.bounding_radii, vol.boxes
+    kinds, radii, cuts, planes = vol.kinds, vol.radii, vol.cuts, vol.planes
+    bounding_radii, boxes = vol.bounding_radii, vol.boxes
     pos0, rot0, pos, rot = vol.pos0, vol.rot0, vol.pos1, vol.rot1
     n_moved = 0
     for e in range(edges.shape[0]):
@@ -288,18 +289,18 @@ def handle_edges(arrays, xs, x, inv_mass, edges, rest_lengths, edge_pinch_depth)
             bx, by, bz = to_local(pos, rot, v, x[b, 0], x[b, 1], x[b, 2])
             if segment_misses_box(boxes, v, ax, ay, az, bx, by, bz):
                 continue  # no point of the edge is inside the volume
-            t, inside = deepest_on_segment(kinds[v], radii, cuts, v, ax, ay, az, bx, by, bz)
+            t, inside = deepest_on_segment(kinds[v], radii, cuts, planes, v, ax, ay, az, bx, by, bz)
             if not inside or t <= 0.0 or t >= 1.0:
                 continue
             px, py, pz = ax + t * (bx - ax), ay + t * (by - ay), az + t * (bz - az)
-            inside, sx, sy, sz, nx, ny, nz = static_projection(kinds[v], radii, cuts, v, px, py, pz)
+            inside, sx, sy, sz, nx, ny, nz = static_projection(kinds[v], radii, cuts, planes, v, px, py, pz)
             if not inside:
                 continue
             # the same point of the edge at the substep's start, in the volume's frame (p0', memo §6.2.1)
             ox, oy, oz = to_local(pos0, rot0, v, xs[a, 0] + t * (xs[b, 0] - xs[a, 0]),
                                   xs[a, 1] + t * (xs[b, 1] - xs[a, 1]), xs[a, 2] + t * (xs[b, 2] - xs[a, 2]))
             if (kinds[v] != CAPSULE and ox * nx + oy * ny < 0.0
-                    and not static_projection(kinds[v], radii, cuts, v, ox, oy, oz)[0]):
+                    and not static_projection(kinds[v], radii, cuts, planes, v, ox, oy, oz)[0]):
                 # it was clear of the volume, beyond the axis: out there, where the axis' perpendicular
                 # towards the start point meets the surface (static projection of a point just off it)
                 ux, uy = ox, oy
@@ -307,7 +308,7 @@ def handle_edges(arrays, xs, x, inv_mass, edges, rest_lengths, edge_pinch_depth)
                 if norm > TINY:
                     lift = 1e-6 * max(radii[v, 0], radii[v, 1])
                     inside, sx, sy, sz, nx, ny, nz = static_projection(
-                        kinds[v], radii, cuts, v, lift * ux / norm, lift * uy / norm, pz)
+                        kinds[v], radii, cuts, planes, v, lift * ux / norm, lift * uy / norm, pz)
                     if not inside:
                         continue
             dip = math.sqrt((sx - px) ** 2 + (sy - py) ** 2 + (sz - pz) ** 2)
@@ -336,10 +337,10 @@ def penetration_depths(arrays, x, out):
     into ``out`` (N,) m. Returns nothing: compiled without numba's runtime, a returned array would carry no
     reference of its own, and a compiled caller dropping it would free the caller's array (``cloth.fused``)."""
     vol = VolumeArrays(*arrays)
-    kinds, radii, cuts, pos, rot = vol.kinds, vol.radii, vol.cuts, vol.pos1, vol.rot1
+    kinds, radii, cuts, planes, pos, rot = vol.kinds, vol.radii, vol.cuts, vol.planes, vol.pos1, vol.rot1
     for i in range(x.shape[0]):
         deepest = 0.0
         for v in range(kinds.shape[0]):
             lx, ly, lz = to_local(pos, rot, v, x[i, 0], x[i, 1], x[i, 2])
-            deepest = max(deepest, penetration_depth(kinds[v], radii, cuts, v, lx, ly, lz))
+            deepest = max(deepest, penetration_depth(kinds[v], radii, cuts, planes, v, lx, ly, lz))
         out[i] = deepest

@@ -20,17 +20,17 @@ from __future__ import annotations
 import math
 
 from .geometry import (
-    capsule_entry,
+    entry,
     kernel,
     penetration_depth,
-    quadric_entry,
+    plane_gap,
     rotate,
     static_projection,
     surface_at,
     to_local,
     to_world,
 )
-from .volumes import CAPSULE, ELLIPSOID
+from .volumes import ELLIPSOID
 
 NO_HIT = 0
 STATIC_HIT = 1
@@ -82,6 +82,7 @@ def surface_velocity(vol, v, lx, ly, lz, h):
 # 246 -> 135. Without the share (any point that came through a cut) hem points at the shins' ankle cut
 # went out under the shin and the walks at 30 fps lost a trouser leg (CC walk 1x/2x: 19, 36 frames).
 _CUT_EXIT_SHARE = 0.5
+_ON_PLANE = 1e-9  # m: a static projection this near a contact plane went onto it
 
 
 @kernel
@@ -93,7 +94,8 @@ def handle_pair(vol, v, xs, x, vel, i, h, eps, friction, c_time, switch_ratio, m
     fraction (dynamic) and the contact point (on the surface, before eps) in the local frame
     of the substep-end pose.
     """
-    kinds, radii, cuts, pos0, rot0, pos1, rot1 = vol.kinds, vol.radii, vol.cuts, vol.pos0, vol.rot0, vol.pos1, vol.rot1
+    kinds, radii, cuts, planes = vol.kinds, vol.radii, vol.cuts, vol.planes
+    pos0, rot0, pos1, rot1 = vol.pos0, vol.rot0, vol.pos1, vol.rot1
     kind = kinds[v]
     bx, by, bz = to_local(pos1, rot1, v, x[i, 0], x[i, 1], x[i, 2])
     use_dynamic = mode == MODE_DYNAMIC
@@ -104,20 +106,18 @@ def handle_pair(vol, v, xs, x, vel, i, h, eps, friction, c_time, switch_ratio, m
             trajectory = math.sqrt((bx - ax) ** 2 + (by - ay) ** 2 + (bz - az) ** 2)
             use_dynamic = trajectory > switch_ratio * vol.switch_radii[v]
         if use_dynamic:
-            if kind == CAPSULE:
-                alpha = capsule_entry(radii, v, ax, ay, az, bx, by, bz)
-            else:
-                alpha = quadric_entry(kind, radii, cuts, v, ax, ay, az, bx, by, bz)
+            alpha, face = entry(kind, radii, cuts, planes, v, ax, ay, az, bx, by, bz)
             if alpha >= 0.0:
-                sx, sy, sz, nx, ny, nz = surface_at(
-                    kind, radii, v, ax + alpha * (bx - ax), ay + alpha * (by - ay), az + alpha * (bz - az))
+                sx, sy, sz, nx, ny, nz = surface_at(kind, radii, planes, v, face, ax + alpha * (bx - ax),
+                                                    ay + alpha * (by - ay), az + alpha * (bz - az))
                 _respond(vol, v, x, vel, i, sx, sy, sz, nx, ny, nz, eps, friction, h, c_time * (1.0 - alpha) * h)
                 return DYNAMIC_HIT, alpha, sx, sy, sz
-    inside, sx, sy, sz, nx, ny, nz = static_projection(kind, radii, cuts, v, bx, by, bz)
+    inside, sx, sy, sz, nx, ny, nz = static_projection(kind, radii, cuts, planes, v, bx, by, bz)
     if not inside:
         return NO_HIT, -1.0, bx, by, bz
     reach = _CUT_EXIT_SHARE * min(radii[v, 0], radii[v, 1])
-    if kind == ELLIPSOID and (sx - bx) ** 2 + (sy - by) ** 2 > reach * reach:
+    if (kind == ELLIPSOID and (sx - bx) ** 2 + (sy - by) ** 2 > reach * reach
+            and abs(plane_gap(planes, v, sx, sy, sz)[0]) > _ON_PLANE):  # not onto a contact plane
         # A point that came in through a cut plane this substep goes back out through it, not across the
         # cross-section: the pelvis' bottom cut is open between the thighs, and a crotch seam a few mm up
         # into it was thrown 14 cm sideways, across a thigh (see _CUT_EXIT_SHARE).
@@ -141,7 +141,7 @@ def depth_elsewhere(vol, v, px, py, pz):
         if o == v or (px - pos[o, 0]) ** 2 + (py - pos[o, 1]) ** 2 + (pz - pos[o, 2]) ** 2 > bounding_radii[o] ** 2:
             continue
         lx, ly, lz = to_local(pos, rot, o, px, py, pz)
-        deepest = max(deepest, penetration_depth(kinds[o], radii, cuts, o, lx, ly, lz))
+        deepest = max(deepest, penetration_depth(kinds[o], radii, cuts, vol.planes, o, lx, ly, lz))
     return deepest
 
 

@@ -16,6 +16,8 @@ import numpy as np
 from .broad_phase import local_boxes
 from .volumes import VolumeSet
 
+MAX_PLANES = 4  # contact planes per volume (``collision.contact_planes``): a forearm on the hip and the chest, ...
+
 
 class VolumeArrays(NamedTuple):
     """Volumes (V of them) and their poses over one substep; lengths in metres, the simulation frame."""
@@ -34,6 +36,9 @@ class VolumeArrays(NamedTuple):
     displacement: np.ndarray  # (V,) m, centre displacement over the substep (``broad_phase.substep_motion``)
     chord: np.ndarray  # (V,) rotation chord 2 sin(angle / 2) over the substep, with a rounding margin
     reach: np.ndarray  # (V,) m, beyond this from a volume's end centre no point can touch it (``reach_radii``)
+    # (V, MAX_PLANES, 4) contact planes in the local frame, (unit normal out of the kept side, offset m): a point
+    # p is beyond one where n . p > offset; used rows first, an offset of +inf ends them (``contact_planes``)
+    planes: np.ndarray
 
     @classmethod
     def at_rest(cls, volumes: VolumeSet) -> VolumeArrays:
@@ -48,7 +53,7 @@ class VolumeArrays(NamedTuple):
                    np.ascontiguousarray(volumes.switch_radii, dtype=np.float64),
                    np.ascontiguousarray(volumes.bones, dtype=np.float64), boxes,
                    np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)), np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)),
-                   np.zeros(n), np.zeros(n), np.zeros(n))
+                   np.zeros(n), np.zeros(n), np.zeros(n), no_planes(n))
 
     def unbounded(self) -> VolumeArrays:
         """The same arrays (poses shared) with infinite bounding radii and boxes: every broad-phase test
@@ -56,3 +61,10 @@ class VolumeArrays(NamedTuple):
         n = len(self.kinds)
         return self._replace(bounding_radii=np.full(n, np.inf),
                              boxes=np.repeat([[-np.inf] * 3 + [np.inf] * 3], n, axis=0))
+
+
+def no_planes(n_volumes: int) -> np.ndarray:
+    """Contact planes (``VolumeArrays.planes``) of ``n_volumes`` volumes, none used."""
+    planes = np.zeros((n_volumes, MAX_PLANES, 4))
+    planes[:, :, 3] = np.inf
+    return planes

@@ -87,6 +87,10 @@ class VolumeSet:
     """An immutable set of volumes and the flat arrays the kernels read."""
 
     volumes: tuple[Volume, ...]
+    # the volumes' poses in the pose they were fitted on (the canonical standing pose): positions (V, 3) m and
+    # xyzw quaternions (V, 4), world frame; None: unknown. Which volumes are disjoint there decides which may be
+    # pressed together in motion (``collision.contact_planes``); without them no pair is.
+    rest_poses: tuple[np.ndarray, np.ndarray] | None = field(default=None, compare=False, repr=False)
     frames: tuple[str, ...] = field(init=False)  # distinct skeleton frames, in first-use order
     frame_index: np.ndarray = field(init=False)  # (V,) index into ``frames``
     kinds: np.ndarray = field(init=False)  # (V,) int64
@@ -122,6 +126,10 @@ class VolumeSet:
 
     def __len__(self) -> int:
         return len(self.volumes)
+
+    def at_rest_in(self, frame_positions: np.ndarray, frame_rotations: np.ndarray) -> VolumeSet:
+        """The same volumes, with ``rest_poses`` the poses the frames (``self.frames``' order) put them in."""
+        return VolumeSet(self.volumes, self.world_poses(frame_positions, frame_rotations))
 
     def names(self) -> list[str]:
         return [v.name for v in self.volumes]

@@ -1,0 +1,207 @@
+"""Contact planes: body volumes pressed together meet on a plane instead of overlapping (issue 11, pinches).
+
+The volumes are rigid, but flesh gives way where two body parts press together: a forearm on the hip, the
+shins as the legs pass, a thigh raised against the belly. Two volumes that overlap then leave the cloth
+between them no position outside both, and the point handling throws it through one of them (a bone
+through the cloth) or fights the length correction (stretch, the guard). Here each such pair gets a
+**contact plane** that cuts both volumes, each keeping its own side: the two cut volumes meet at the plane,
+and a cloth point squeezed between them rests on it, outside both (``geometry.static_projection``,
+``entry``, ``penetration_depth``, ``deepest_on_segment`` read the planes). Each volume's face is ``gap / 2``
+short of the plane, ``gap`` twice the collision epsilon: a point put epsilon outside one face (as the point
+handling does) is then on the plane, not epsilon deep into the other volume.
+
+Which pairs: those disjoint in the pose the body was fitted on (``VolumeSet.rest_poses``, the canonical
+standing pose) and on different skeleton frames. Pairs overlapping at rest overlap by design at a joint
+and are left as they are; pairs disjoint at rest only overlap when pressed together.
+
+Where (``press``), per pair (a, b) overlapping now, at the substep's end poses: along the line joining
+the nearest points c_a, c_b of the two volumes' axes (their local z segments), the volumes reach e_a from
+c_a and e_b from c_b (their surfaces), and overlap by o = e_a + e_b - |c_b - c_a| > 0. The plane is square
+to that line and divides the axes' distance in proportion to the reaches (the thicker part gives way more,
+each by its share of o), then is moved, if need be, to keep ``clearance`` from either volume's bone
+segment (the whole segment; a volume without a bone: its axis point c_a): a limb's bone stays on its own
+side with room for the cloth, so the cloth between a forearm and the hip ends between the forearm's bone
+and the pelvis' centre. Bones closer together than twice the clearance: the plane goes halfway between
+the two clearance bounds. (The faces, gap / 2 either side, keep the clearance from their own bone.)
+
+The planes are stored in each volume's local frame (``VolumeArrays.planes``, (V, MAX_PLANES, 4): unit
+normal out of the kept side, offset m; the used rows first, an offset of +inf ends them), so they move
+with the volume over the substep as the z cuts do. A volume pressed by more than MAX_PLANES others keeps
+the first MAX_PLANES (pairs in index order). Planes are infinite: a volume loses the whole cap beyond its
+plane, at most its share of the overlap deep (``press`` returns the deepest overlap, which evaluate reports
+as the flesh pressed).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..transforms import quat_to_matrix
+from .geometry import capsule_sdf, kernel, ray_exit, to_world
+from .volume_arrays import VolumeArrays
+from .volumes import CAPSULE, ELLIPSOID, SPHERE, VolumeSet
+
+_BISECTIONS = 40  # a capsule's reach along a ray, by bisection: 2^-40 of its length
+_TINY = 1e-9  # m: axes closer than this have no direction between them
+
+
+@kernel
+def _axis(kinds, radii, cuts, v):
+    """Local z range of volume v's axis: a sphere's centre, a capsule's segment, an ellipsoid's z extent
+    within its cut."""
+    if kinds[v] == SPHERE:
+        return 0.0, 0.0
+    if kinds[v] == CAPSULE:
+        return -radii[v, 2], radii[v, 2]
+    return max(-radii[v, 2], cuts[v, 0]), min(radii[v, 2], cuts[v, 1])
+
+
+@kernel
+def _nearest_on_segments(px, py, pz, dx, dy, dz, qx, qy, qz, ex, ey, ez):
+    """Parameters (s, t) in [0, 1] of the nearest points p + s d and q + t e of two segments (Ericson 5.1.9)."""
+    rx, ry, rz = px - qx, py - qy, pz - qz
+    a = dx * dx + dy * dy + dz * dz
+    e = ex * ex + ey * ey + ez * ez
+    f = ex * rx + ey * ry + ez * rz
+    if a <= _TINY * _TINY and e <= _TINY * _TINY:
+        return 0.0, 0.0
+    if a <= _TINY * _TINY:
+        return 0.0, min(1.0, max(0.0, f / e))
+    c = dx * rx + dy * ry + dz * rz
+    if e <= _TINY * _TINY:
+        return min(1.0, max(0.0, -c / a)), 0.0
+    b = dx * ex + dy * ey + dz * ez
+    denom = a * e - b * b
+    s = min(1.0, max(0.0, (b * f - c * e) / denom)) if denom > 0.0 else 0.0
+    t = (b * s + f) / e
+    if t < 0.0:
+        t, s = 0.0, min(1.0, max(0.0, -c / a))
+    elif t > 1.0:
+        t, s = 1.0, min(1.0, max(0.0, (b - c) / a))
+    return s, t
+
+
+@kernel
+def _reach(kinds, radii, rot, v, z, ux, uy, uz):
+    """How far (m) volume v's surface is from its local axis point (0, 0, z) along the world direction u."""
+    dx = rot[v, 0, 0] * ux + rot[v, 1, 0] * uy + rot[v, 2, 0] * uz
+    dy = rot[v, 0, 1] * ux + rot[v, 1, 1] * uy + rot[v, 2, 1] * uz
+    dz = rot[v, 0, 2] * ux + rot[v, 1, 2] * uy + rot[v, 2, 2] * uz
+    if kinds[v] == SPHERE:
+        return radii[v, 0]
+    if kinds[v] == ELLIPSOID:
+        return max(0.0, ray_exit(radii[v, 0], radii[v, 1], radii[v, 2], 0.0, 0.0, z, dx, dy, dz))
+    # capsule: convex, so the ray from an axis point (inside) leaves it once: bisect the sign of its distance
+    lo, hi = 0.0, 2.0 * radii[v, 2] + max(radii[v, 0], radii[v, 1])
+    for _ in range(_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        if capsule_sdf(radii[v, 0], radii[v, 1], radii[v, 2], mid * dx, mid * dy, z + mid * dz)[0] < 0.0:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+@kernel
+def _overlap(kinds, radii, cuts, pos, rot, a, b):
+    """``(overlap, za, zb, ux, uy, uz, distance, reach_a, reach_b)``: how deep (m) volumes a and b overlap
+    along the line joining their axes' nearest points (local heights za, zb; unit direction u from a's to
+    b's, ``distance`` apart), and their reaches along it; overlap +inf when the axes meet (no direction)."""
+    a0, a1 = _axis(kinds, radii, cuts, a)
+    b0, b1 = _axis(kinds, radii, cuts, b)
+    pax, pay, paz = to_world(pos, rot, a, 0.0, 0.0, a0)
+    qax, qay, qaz = to_world(pos, rot, a, 0.0, 0.0, a1)
+    pbx, pby, pbz = to_world(pos, rot, b, 0.0, 0.0, b0)
+    qbx, qby, qbz = to_world(pos, rot, b, 0.0, 0.0, b1)
+    s, t = _nearest_on_segments(pax, pay, paz, qax - pax, qay - pay, qaz - paz,
+                                pbx, pby, pbz, qbx - pbx, qby - pby, qbz - pbz)
+    ux = pbx + t * (qbx - pbx) - (pax + s * (qax - pax))
+    uy = pby + t * (qby - pby) - (pay + s * (qay - pay))
+    uz = pbz + t * (qbz - pbz) - (paz + s * (qaz - paz))
+    distance = math.sqrt(ux * ux + uy * uy + uz * uz)
+    za, zb = a0 + s * (a1 - a0), b0 + t * (b1 - b0)
+    if distance < _TINY:
+        return math.inf, za, zb, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0
+    ux, uy, uz = ux / distance, uy / distance, uz / distance
+    reach_a = _reach(kinds, radii, rot, a, za, ux, uy, uz)
+    reach_b = _reach(kinds, radii, rot, b, zb, -ux, -uy, -uz)
+    return reach_a + reach_b - distance, za, zb, ux, uy, uz, distance, reach_a, reach_b
+
+
+@kernel
+def _bone_extent(bones, pos, rot, v, z, cx, cy, cz, ux, uy, uz, sign):
+    """The most (sign +1) or least (-1) of u . (p - c) over volume v's bone segment p (its axis point at
+    height z without a bone)."""
+    lo, hi = bones[v, 0], bones[v, 1]
+    if math.isnan(lo):
+        lo, hi = z, z
+    best = -math.inf
+    for h in (lo, hi):
+        px, py, pz = to_world(pos, rot, v, 0.0, 0.0, h)
+        best = max(best, sign * (ux * (px - cx) + uy * (py - cy) + uz * (pz - cz)))
+    return sign * best
+
+
+@kernel
+def _add_plane(planes, pos, rot, v, nx, ny, nz, cx, cy, cz):
+    """Append to volume v's planes the one through world point c with world normal n (out of v's kept side)."""
+    for k in range(planes.shape[1]):
+        if planes[v, k, 3] == math.inf:
+            lx = rot[v, 0, 0] * nx + rot[v, 1, 0] * ny + rot[v, 2, 0] * nz
+            ly = rot[v, 0, 1] * nx + rot[v, 1, 1] * ny + rot[v, 2, 1] * nz
+            lz = rot[v, 0, 2] * nx + rot[v, 1, 2] * ny + rot[v, 2, 2] * nz
+            planes[v, k, 0], planes[v, k, 1], planes[v, k, 2] = lx, ly, lz
+            planes[v, k, 3] = nx * (cx - pos[v, 0]) + ny * (cy - pos[v, 1]) + nz * (cz - pos[v, 2])
+            return
+
+
+@kernel
+def press(arrays, pairs, clearance, gap):
+    """Contact planes of the ``pairs`` (K, 2) that overlap at the substep's end poses (``pos1``, ``rot1``),
+    written into ``planes`` (see the module docstring); ``clearance`` m from the bones, the two faces ``gap``
+    m apart. Returns the deepest overlap pressed away, m (0: none)."""
+    vol = VolumeArrays(*arrays)  # a plain tuple from Python (see ``collision.kernels``)
+    kinds, radii, cuts, bones, bounding_radii = vol.kinds, vol.radii, vol.cuts, vol.bones, vol.bounding_radii
+    planes, pos, rot = vol.planes, vol.pos1, vol.rot1
+    for v in range(planes.shape[0]):
+        for k in range(planes.shape[1]):
+            planes[v, k, 0], planes[v, k, 1], planes[v, k, 2], planes[v, k, 3] = 0.0, 0.0, 0.0, math.inf
+    deepest = 0.0
+    for p in range(pairs.shape[0]):
+        a, b = pairs[p, 0], pairs[p, 1]
+        reach = bounding_radii[a] + bounding_radii[b]
+        if (pos[a, 0] - pos[b, 0]) ** 2 + (pos[a, 1] - pos[b, 1]) ** 2 + (pos[a, 2] - pos[b, 2]) ** 2 > reach * reach:
+            continue
+        overlap, za, zb, ux, uy, uz, distance, reach_a, reach_b = _overlap(kinds, radii, cuts, pos, rot, a, b)
+        if not 0.0 < overlap < math.inf:  # apart, or axes that meet: no side to press to
+            continue
+        deepest = max(deepest, overlap)
+        cx, cy, cz = to_world(pos, rot, a, 0.0, 0.0, za)
+        # the plane at c + s u: the axes' distance divided in proportion to the reaches, then the clearance
+        s = distance * reach_a / (reach_a + reach_b)
+        lo = _bone_extent(bones, pos, rot, a, za, cx, cy, cz, ux, uy, uz, 1.0) + clearance + 0.5 * gap
+        hi = _bone_extent(bones, pos, rot, b, zb, cx, cy, cz, ux, uy, uz, -1.0) - clearance - 0.5 * gap
+        s = min(hi, max(lo, s)) if lo <= hi else 0.5 * (lo + hi)
+        _add_plane(planes, pos, rot, a, ux, uy, uz, cx + (s - 0.5 * gap) * ux, cy + (s - 0.5 * gap) * uy,
+                   cz + (s - 0.5 * gap) * uz)
+        _add_plane(planes, pos, rot, b, -ux, -uy, -uz, cx + (s + 0.5 * gap) * ux, cy + (s + 0.5 * gap) * uy,
+                   cz + (s + 0.5 * gap) * uz)
+    return deepest
+
+
+def pressable_pairs(volumes: VolumeSet) -> np.ndarray:
+    """(K, 2) int64 volume index pairs (a < b) that may be pressed together: on different skeleton frames
+    and disjoint in ``volumes.rest_poses``; none without rest poses."""
+    if volumes.rest_poses is None:
+        return np.zeros((0, 2), dtype=np.int64)
+    positions = np.ascontiguousarray(volumes.rest_poses[0], dtype=np.float64)
+    rotations = np.ascontiguousarray(quat_to_matrix(np.asarray(volumes.rest_poses[1], dtype=np.float64)))
+    kinds = np.ascontiguousarray(volumes.kinds, dtype=np.int64)
+    radii = np.ascontiguousarray(volumes.radii, dtype=np.float64)
+    cuts = np.ascontiguousarray(volumes.cuts, dtype=np.float64)
+    pairs = [(a, b) for a in range(len(volumes)) for b in range(a + 1, len(volumes))
+             if volumes.frame_index[a] != volumes.frame_index[b]
+             and not _overlap(kinds, radii, cuts, positions, rotations, a, b)[0] > 0.0]
+    return np.array(pairs, dtype=np.int64).reshape(-1, 2)
