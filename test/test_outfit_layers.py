@@ -85,6 +85,55 @@ def test_an_edge_through_the_inner_surface_is_counted_and_pushed_out():
     assert surface.edges_through(x, edges) == 0 and x[1, 2] >= THICKNESS - 1e-12
 
 
+def _tube(radius=0.07, around=16, length=0.4, rings=5):
+    """A closed-round tube along y (a trouser leg), its axis on the y axis, counter-clockwise seen from outside."""
+    angles = np.linspace(0.0, 2 * np.pi, around, endpoint=False)
+    ys = np.linspace(-length / 2, length / 2, rings)
+    y = np.array([(radius * np.cos(a), w, radius * np.sin(a)) for w in ys for a in angles])
+    triangles = []
+    for j in range(rings - 1):
+        for i in range(around):
+            a, b = j * around + i, j * around + (i + 1) % around
+            triangles += [(a, a + around, b + around), (a, b + around, b)]
+    return y, np.array(triangles)
+
+
+def test_an_edge_straddling_a_tube_with_both_ends_outside_is_lifted_off_it():
+    """A long skirt's edge across a trouser leg: both ends outside the tube, the edge through its top. No point
+    is under a triangle and no edge is near a triangle's edge, so only the edge's crossings can say it is
+    through; it goes out whole, along the two crossed triangles' mean normal (up here)."""
+    radius, around = 0.07, 16
+    surface = InnerSurface(*_tube(radius, around), reach=0.05)
+    centroids = surface.positions[surface.triangles].mean(axis=1)
+    assert np.all(np.einsum("ij,ij->i", surface.normals, centroids * [1, 0, 1]) > 0)  # outward
+    x = np.array([[-0.1, 0.013, 0.055], [0.1, 0.013, 0.055]])  # a 20 cm chord 1.5 cm under the tube's top
+    edges = np.array([[0, 1]])
+    assert surface.edges_through(x, edges) == 1
+    before = x.copy()
+    _separate(surface, x, edges=edges)
+    assert surface.edges_through(x, edges) == 0
+    moved = x - before
+    # up: the crossed triangles are mirror images (a later sweep's edge-edge push may tilt it a little)
+    assert np.all(np.abs(moved[:, :2]) < 0.1 * moved[:, 2:])
+    apothem = radius * np.cos(np.pi / around)  # the polygon's flats' distance from the axis
+    assert x[:, 2].min() >= apothem + THICKNESS - 1e-9  # the edge's lowest point: the thickness over the flats
+    # and no further than the thickness over where the crossed facets' planes meet (the facets from 45 to 67.5
+    # degrees and their mirror images: the wedge that bounds the tube there)
+    rise = np.sin(np.radians(56.25))
+    assert x.mean(axis=0)[2] == pytest.approx((apothem + THICKNESS) / rise, abs=1e-3)
+
+
+def test_an_edge_with_an_end_inside_a_tube_has_that_end_pushed_out():
+    surface = InnerSurface(*_tube(), reach=0.05)
+    x = np.array([[0.0, 0.0, 0.1], [0.01, 0.02, 0.05]])  # from 3 cm over the tube's top to 2 cm inside it
+    edges = np.array([[0, 1]])
+    assert surface.edges_through(x, edges) == 1
+    _separate(surface, x, edges=edges)
+    assert surface.edges_through(x, edges) == 0
+    assert x[0] == pytest.approx([0.0, 0.0, 0.1])  # the outer end stays
+    assert np.hypot(x[1, 0], x[1, 2]) > 0.07 * np.cos(np.pi / 16)
+
+
 def test_the_grid_counts_the_crossings_the_brute_force_check_counts():
     rng = np.random.default_rng(3)
     y, triangles = _sheet(n=12, size=0.6, z=lambda x, y: 0.05 * np.sin(8 * x) * np.cos(5 * y))
