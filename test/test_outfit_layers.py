@@ -134,6 +134,18 @@ def test_an_edge_with_an_end_inside_a_tube_has_that_end_pushed_out():
     assert np.hypot(x[1, 0], x[1, 2]) > 0.07 * np.cos(np.pi / 16)
 
 
+def test_an_edge_through_the_surface_by_its_pinned_end_does_not_fling_its_free_end():
+    """An attached point 1 mm under the inner surface, its edge up through it along a triangle's edge: lifting the
+    crossing point by the free end alone would take it 100 times as far (once 0.4 m: a runaway, then a crash on
+    the positions it left). The free end moves no more than twice as far as the point it would lift."""
+    surface = InnerSurface(*_sheet(), reach=0.05)
+    x = np.array([[0.03, 0.0, -0.001], [0.03, 0.0, 0.1]])  # the sheet's grid line x = 0.03 is a triangle edge
+    before = x.copy()
+    _separate(surface, x, movable=np.array([False, True]), edges=np.array([[0, 1]]))
+    assert np.array_equal(x[0], before[0])
+    assert np.linalg.norm(x[1] - before[1]) <= 2 * THICKNESS
+
+
 def test_the_grid_counts_the_crossings_the_brute_force_check_counts():
     rng = np.random.default_rng(3)
     y, triangles = _sheet(n=12, size=0.6, z=lambda x, y: 0.05 * np.sin(8 * x) * np.cos(5 * y))
