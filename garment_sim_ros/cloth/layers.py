@@ -51,6 +51,7 @@ _SETTLED = 1e-6  # m: a point this close to the thickness is where it belongs (n
 # crease can put it through the next; CC walk, pants + long skirt, 3 s: 3 sweeps left 50 crossing frames of 156,
 # 8 left 45)
 SWEEPS = 8
+BONE_PASSES = 4  # undo_bone_crossings' passes (a corner put back can cross a neighbour)
 CELL_PER_TRIANGLE = 1.5  # the grid's cell, in a typical inner triangle's radii (centroid to farthest corner)
 _TRACK_DEPTH = 0.05  # m: a point this far behind the triangle it was over has not been pushed through it
 _LEVER = 0.25  # an edge moves by its ends while (1 - s)^2 + s^2 of the free ones reaches this: at most twice as far
@@ -445,6 +446,38 @@ def count_edges_through(x, edges, y, triangles, origin, dims, cell, starts, entr
                 count += 1
                 break
     return count
+
+
+@njit(cache=True)
+def undo_bone_crossings(x, v, x_kept, v_kept, triangles, starts, ends, passes):
+    """The body comes first: a triangle (T, 3) of ``x`` (N, 3) that a limb bone (``starts``, ``ends``: (B, 3))
+    crosses and did not cross at ``x_kept`` (the positions the body's handling left) has its corners put back
+    there, velocities ``v`` from ``v_kept``. Putting a corner back can cross a neighbour that shares it, so up to
+    ``passes`` passes, until one puts nothing back (all back: nothing crosses that did not). Returns the corners
+    put back."""
+    restored = 0
+    for _ in range(passes):
+        moved = 0
+        for k in range(starts.shape[0]):
+            px, py, pz = starts[k, 0], starts[k, 1], starts[k, 2]
+            qx, qy, qz = ends[k, 0], ends[k, 1], ends[k, 2]
+            for t in range(triangles.shape[0]):
+                a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+                if segment_misses_triangle_box(x, a, b, c, px, py, pz, qx, qy, qz):
+                    continue
+                if not segment_crosses_triangle(px, py, pz, qx - px, qy - py, qz - pz, x, a, b, c)[0]:
+                    continue
+                if segment_crosses_triangle(px, py, pz, qx - px, qy - py, qz - pz, x_kept, a, b, c)[0]:
+                    continue  # the body's handling left it crossed: not the layers' doing
+                for i in (a, b, c):
+                    if x[i, 0] != x_kept[i, 0] or x[i, 1] != x_kept[i, 1] or x[i, 2] != x_kept[i, 2]:
+                        x[i, :] = x_kept[i, :]
+                        v[i, :] = v_kept[i, :]
+                        moved += 1
+        restored += moved
+        if moved == 0:
+            break
+    return restored
 
 
 class InnerSurface:
