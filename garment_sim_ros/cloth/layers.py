@@ -368,14 +368,9 @@ def _push_edge(x, v, pushed, movable, p0, p1, s, nx, ny, nz, distance):
 
 
 @njit(cache=True, inline="always")
-def _edge_through(x, v, pushed, movable, p0, p1, y, triangles, normals, found, count, thickness, reach):
-    """Pass 4 of ``separate``: outer edge (p0, p1) through inner triangles (``found[:count]``, the candidates)
-    goes out of them. The crossings along the edge, first and last, say which ends are inside the inner
-    surface: one entered at the first crossing and left at the last is a straddle (both ends outside, the
-    edge through a trouser leg or a fold), moved out whole along the two triangles' mean normal until its
-    deepest point is ``thickness`` out (the two planes bound a convex tube); otherwise the end behind the
-    first crossing (left there) or the last (entered there) goes ``thickness`` out of that triangle's plane.
-    Returns the pushes made."""
+def _first_and_last_crossing(x, p0, p1, y, triangles, found, count):
+    """The first and last of the triangles ``found[:count]`` that edge (p0, p1) of ``x`` crosses, along it from p0:
+    (first, its segment parameter, last, its parameter); first = -1 when it crosses none."""
     px, py, pz = x[p0, 0], x[p0, 1], x[p0, 2]
     dx, dy, dz = x[p1, 0] - px, x[p1, 1] - py, x[p1, 2] - pz
     first_s, last_s, first, last = 2.0, -1.0, -1, -1
@@ -391,8 +386,37 @@ def _edge_through(x, v, pushed, movable, p0, p1, y, triangles, normals, found, c
             first_s, first = s, t
         if s > last_s:
             last_s, last = s, t
+    return first, first_s, last, last_s
+
+
+@njit(cache=True)
+def edge_crossings(x, edges, y, triangles, origin, dims, cell, starts, entries, crossed):
+    """Per edge (E, 2) of points ``x`` (N, 3), the first and last triangle (T, 3) of points ``y`` it crosses,
+    along it from its first point, through the grid of ``build_grid``: ``crossed`` (E, 2) int64, -1 for none
+    (``tools/layer_crossings.py`` sorts the crossings left with it)."""
+    stamp = np.full(triangles.shape[0], -1, dtype=np.int64)
+    found = np.empty(triangles.shape[0], dtype=np.int64)
+    for k in range(edges.shape[0]):
+        p0, p1 = edges[k, 0], edges[k, 1]
+        count = _near_segment(x[p0, 0], x[p0, 1], x[p0, 2], x[p1, 0], x[p1, 1], x[p1, 2], 0.0, origin, dims, cell,
+                              starts, entries, stamp, k, found, False)
+        first, _, last, _ = _first_and_last_crossing(x, p0, p1, y, triangles, found, count)
+        crossed[k, 0], crossed[k, 1] = first, last
+
+
+@njit(cache=True, inline="always")
+def _edge_through(x, v, pushed, movable, p0, p1, y, triangles, normals, found, count, thickness, reach):
+    """Pass 4 of ``separate``: outer edge (p0, p1) through inner triangles (``found[:count]``, the candidates)
+    goes out of them. The crossings along the edge, first and last, say which ends are inside the inner
+    surface: one entered at the first crossing and left at the last is a straddle (both ends outside, the
+    edge through a trouser leg or a fold), moved out whole along the two triangles' mean normal until its
+    deepest point is ``thickness`` out (the two planes bound a convex tube); otherwise the end behind the
+    first crossing (left there) or the last (entered there) goes ``thickness`` out of that triangle's plane.
+    Returns the pushes made."""
+    first, first_s, last, last_s = _first_and_last_crossing(x, p0, p1, y, triangles, found, count)
     if first < 0:
         return 0
+    dx, dy, dz = x[p1, 0] - x[p0, 0], x[p1, 1] - x[p0, 1], x[p1, 2] - x[p0, 2]
     enters = dx * normals[first, 0] + dy * normals[first, 1] + dz * normals[first, 2] < 0.0
     leaves = dx * normals[last, 0] + dy * normals[last, 1] + dz * normals[last, 2] > 0.0
     if enters and leaves:
@@ -508,6 +532,15 @@ class InnerSurface:
                             np.ascontiguousarray(edges, dtype=np.int64), self.positions, self.triangles, self.normals,
                             self.radii, float(thickness), self.reach, self.origin, self.dims, self.cell, self.starts,
                             self.entries, tracked, SWEEPS))
+
+    def crossings(self, x: np.ndarray, edges: np.ndarray) -> np.ndarray:
+        """(E, 2) int64: per edge (E, 2) of points ``x`` (N, 3), the first and last of these triangles it crosses
+        along it (-1: none)."""
+        crossed = np.empty((len(edges), 2), dtype=np.int64)
+        edge_crossings(np.ascontiguousarray(x, dtype=np.float64), np.ascontiguousarray(edges, dtype=np.int64),
+                       self.positions, self.triangles, self.origin, self.dims, self.cell, self.starts, self.entries,
+                       crossed)
+        return crossed
 
     def edges_through(self, x: np.ndarray, edges: np.ndarray) -> int:
         """How many edges (E, 2) of points ``x`` (N, 3) cross one of these triangles."""
