@@ -29,9 +29,10 @@ skin), the outfit's order breaking ties (a garment named later is worn over one 
 garment is kept outside every garment worn under it (``cloth.layers``: the inner surface a collider for
 the outer, ``layer_thickness`` off it), once per frame after every garment's step against the body: the
 garments are separate solvers with their own substeps (their materials' own plans), and the frame's path
-pass catches what went through in between. An outer garment cut like an inner one (a skirt's waistband on
-the trousers') starts moved outside it, and an attachment lying on an inner garment's attachment of the
-same role is skinned as that one is (two bands carried differently would part).
+pass catches what went through in between; the body comes first (a point the pass would push into a
+volume, or a triangle it would put across a limb bone, goes back). An outer garment cut like an inner one
+(a skirt's waistband on the trousers') starts moved outside it, and an attachment lying on an inner
+garment's attachment of the same role is skinned as that one is (two bands carried differently would part).
 """
 
 from __future__ import annotations
