@@ -213,15 +213,16 @@ class DressedCharacter:
                 self._surface(inner, surfaces).separate(state.positions, state.velocities,
                                                         solver.constants.inv_mass > 0.0, solver.model.edges,
                                                         solver.params.layer_thickness, tracked, previous[row])
-            if solver.collider is not None:
-                # The body comes first: a point pushed off an inner garment into a volume (a forearm lying on
-                # the trousers at the hip) goes back to where the body's handling left it.
-                deeper = solver.collider.penetration_depths(state.positions) - solver.collider.penetration_depths(
-                    kept[0])
-                keep_where_inside(state.positions, state.velocities, *kept, deeper - 1e-6)
             if bones is not None:
                 undo_bone_crossings(state.positions, state.velocities, *kept, solver.model.triangles, *bones,
                                     BONE_PASSES)
+            if solver.collider is not None:
+                # The body comes first: a point pushed off an inner garment into a volume (a forearm lying on
+                # the trousers at the hip, or part of the way back from across a bone) goes back to where the
+                # body's handling left it.
+                deeper = solver.collider.penetration_depths(state.positions) - solver.collider.penetration_depths(
+                    kept[0])
+                keep_where_inside(state.positions, state.velocities, *kept, deeper - 1e-6)
 
     def layer_crossings(self) -> list[int]:
         """Per garment, how many of its edges cross a triangle of a garment worn under it (0 for the

@@ -52,6 +52,7 @@ _SETTLED = 1e-6  # m: a point this close to the thickness is where it belongs (n
 # 8 left 45)
 SWEEPS = 8
 BONE_PASSES = 4  # undo_bone_crossings' passes (a corner put back can cross a neighbour)
+BACK_STEPS = 4  # undo_bone_crossings puts a triangle back by quarters of the way, the least that clears the bone
 CELL_PER_TRIANGLE = 1.5  # the grid's cell, in a typical inner triangle's radii (centroid to farthest corner)
 _TRACK_DEPTH = 0.05  # m: a point this far behind the triangle it was over has not been pushed through it
 _LEVER = 0.25  # an edge moves by its ends while (1 - s)^2 + s^2 of the free ones reaches this: at most twice as far
@@ -476,10 +477,11 @@ def count_edges_through(x, edges, y, triangles, origin, dims, cell, starts, entr
 def undo_bone_crossings(x, v, x_kept, v_kept, triangles, starts, ends, passes):
     """The body comes first: a triangle (T, 3) of ``x`` (N, 3) that a limb bone (``starts``, ``ends``: (B, 3))
     crosses and did not cross at ``x_kept`` (the positions the body's handling left) has its corners put back
-    there, velocities ``v`` from ``v_kept``. Putting a corner back can cross a neighbour that shares it, so up to
-    ``passes`` passes, until one puts nothing back (all back: nothing crosses that did not). Returns the corners
-    put back."""
+    towards there, by the least quarter of the way that clears the bone (velocities ``v`` from ``v_kept``).
+    Putting a corner back can cross a neighbour that shares it, so up to ``passes`` passes, until one puts
+    nothing back (all back: nothing crosses that did not). Returns the corners moved."""
     restored = 0
+    saved = np.empty((3, 3))  # a triangle's corners before they go back
     for _ in range(passes):
         moved = 0
         for k in range(starts.shape[0]):
@@ -493,9 +495,22 @@ def undo_bone_crossings(x, v, x_kept, v_kept, triangles, starts, ends, passes):
                     continue
                 if segment_crosses_triangle(px, py, pz, qx - px, qy - py, qz - pz, x_kept, a, b, c)[0]:
                     continue  # the body's handling left it crossed: not the layers' doing
-                for i in (a, b, c):
-                    if x[i, 0] != x_kept[i, 0] or x[i, 1] != x_kept[i, 1] or x[i, 2] != x_kept[i, 2]:
-                        x[i, :] = x_kept[i, :]
+                # back by the least of BACK_STEPS equal steps that clears the bone (all the way clears it): a
+                # corner put all the way back while its neighbours stay pushed stretches their springs
+                for j in range(3):
+                    for k3 in range(3):
+                        saved[j, k3] = x[triangles[t, j], k3]
+                for step in range(1, BACK_STEPS + 1):
+                    fraction = step / BACK_STEPS
+                    for j in range(3):
+                        i = triangles[t, j]
+                        for k3 in range(3):
+                            x[i, k3] = saved[j, k3] + fraction * (x_kept[i, k3] - saved[j, k3])
+                    if not segment_crosses_triangle(px, py, pz, qx - px, qy - py, qz - pz, x, a, b, c)[0]:
+                        break
+                for j in range(3):
+                    i = triangles[t, j]
+                    if x[i, 0] != saved[j, 0] or x[i, 1] != saved[j, 1] or x[i, 2] != saved[j, 2]:
                         v[i, :] = v_kept[i, :]
                         moved += 1
         restored += moved
