@@ -48,8 +48,8 @@ SAME_BAND_M = 0.02  # m: an outer garment's attachment this close to an inner on
 REACH_M = 0.05  # m: an outer point this close over an inner garment's triangle is checked against it
 _SETTLED = 1e-6  # m: a point this close to the thickness is where it belongs (no sweep for rounding)
 # separate's passes run at most this many times (again while they push a point: a push out of one face of a
-# crease can put it through the next; CC walk, pants + long skirt, 3 s: 3 sweeps left 50 crossing frames of 156,
-# 8 left 45)
+# crease can put it through the next; CC walk, pants + long skirt, 3 s, before the bone rule: 3 sweeps left 50
+# crossing frames of 156, 8 left 45)
 SWEEPS = 8
 BONE_PASSES = 4  # undo_bone_crossings' passes (a corner put back can cross a neighbour)
 BACK_STEPS = 4  # undo_bone_crossings puts a triangle back by quarters of the way, the least that clears the bone
