@@ -29,9 +29,10 @@ skin), the outfit's order breaking ties (a garment named later is worn over one 
 garment is kept outside every garment worn under it (``cloth.layers``: the inner surface a collider for
 the outer, ``layer_thickness`` off it), once per frame after every garment's step against the body: the
 garments are separate solvers with their own substeps (their materials' own plans), and the frame's path
-pass catches what went through in between. An outer garment cut like an inner one (a skirt's waistband on
-the trousers') starts moved outside it, and an attachment lying on an inner garment's attachment of the
-same role is skinned as that one is (two bands carried differently would part).
+pass catches what went through in between; the body comes first (a point the pass would push into a
+volume, or a triangle it would put across a limb bone, goes back). An outer garment cut like an inner one
+(a skirt's waistband on the trousers') starts moved outside it, and an attachment lying on an inner
+garment's attachment of the same role is skinned as that one is (two bands carried differently would part).
 """
 
 from __future__ import annotations
@@ -50,7 +51,7 @@ from .body.root import root_frame
 from .body.skeleton import SkeletonPose, forward_kinematics
 from .cloth.garments import GarmentMesh
 from .cloth.kernels import keep_where_inside
-from .cloth.layers import REACH_M, InnerSurface, carried_like
+from .cloth.layers import BONE_PASSES, REACH_M, InnerSurface, carried_like, undo_bone_crossings
 from .cloth.mesh_check import GarmentMeshError
 from .cloth.model import build_cloth_model
 from .cloth.motion_constraints import SkinBinding
@@ -59,7 +60,7 @@ from .cloth.spec import GarmentSpec, build_mesh, resolve_garment
 from .collision.collider import Collider
 from .params import SolverParams
 from .quality import TARGETS, GarmentMeter, free_point_depth
-from .transforms import compose, inverse, quat_slerp, yaw_quat
+from .transforms import compose, inverse, quat_slerp, transform_points, yaw_quat
 
 
 def make_character(rest_pose: SkeletonPose, joint_map: dict[str, str], garments: Sequence[str | GarmentSpec],
@@ -191,11 +192,18 @@ class DressedCharacter:
                               f"moved {params.layer_thickness * 1e3:g} mm outside them")
         return dataclasses.replace(mesh, vertices=x)
 
-    def _separate_layers(self, rows: Sequence[int], previous: dict[int, np.ndarray]) -> None:
+    def _separate_layers(self, rows: Sequence[int], previous: dict[int, np.ndarray],
+                         pose: SkeletonPose | None = None, motion: RootMotion | None = None) -> None:
         """After the frame's step against the body: every garment of ``rows`` kept outside those it is
         worn over (``cloth.layers``), its path from its positions before the step (``previous``: row -> (N, 3)).
-        Inner garments first, so each outer one meets the inner ones where they end the frame."""
+        Inner garments first, so each outer one meets the inner ones where they end the frame. With the
+        frame's ``pose`` and root ``motion``, a garment triangle the layers put across a limb bone goes back."""
         surfaces: dict[int, InnerSurface] = {}
+        bones = None
+        if pose is not None and rows:
+            to_root = inverse(np.asarray(motion.position, float), yaw_quat(motion.yaw))
+            bones = [np.ascontiguousarray(transform_points(*to_root, ends))
+                     for ends in self._meters[rows[0]].bone_segments(pose)]
         for row in sorted(rows, key=lambda r: len(self._inner[r])):
             solver = self.solvers[row]
             state = solver.state
@@ -205,9 +213,13 @@ class DressedCharacter:
                 self._surface(inner, surfaces).separate(state.positions, state.velocities,
                                                         solver.constants.inv_mass > 0.0, solver.model.edges,
                                                         solver.params.layer_thickness, tracked, previous[row])
+            if bones is not None:
+                undo_bone_crossings(state.positions, state.velocities, *kept, solver.model.triangles, *bones,
+                                    BONE_PASSES)
             if solver.collider is not None:
                 # The body comes first: a point pushed off an inner garment into a volume (a forearm lying on
-                # the trousers at the hip) goes back to where the body's handling left it.
+                # the trousers at the hip, or part of the way back from across a bone) goes back to where the
+                # body's handling left it.
                 deeper = solver.collider.penetration_depths(state.positions) - solver.collider.penetration_depths(
                     kept[0])
                 keep_where_inside(state.positions, state.velocities, *kept, deeper - 1e-6)
@@ -333,7 +345,7 @@ class DressedCharacter:
             frame = FrameInput.between(t0=previous_time, motion0=start_motion, poses0=(p0[sel], q0[sel]),
                                        t1=time_s, motion1=motion, poses1=(p1[sel], q1[sel]))
             reports.append(solver.advance(frame))
-        self._separate_layers(layered, before)
+        self._separate_layers(layered, before, pose, motion)
         self._recover(reports, pose, motion, time_s)
         self._previous = (pose, motion, time_s)
         if measure:

@@ -17,9 +17,13 @@ the cells its box, grown by how near it looks, touches):
    ``thickness`` outside that triangle, has its two ends moved out along the triangle's normal, each
    by its share (the ends' barycentric weights), so that the closest point ends ``thickness`` out; this
    is what catches an outer edge over a ridge of the inner garment, where its ends are over no triangle;
-4. edge-triangle: an outer edge still through an inner triangle has its end on the inner side pushed
-   out when that end is less than ``reach`` through (an edge across a fold); an edge straddling a whole
-   tube or fold is left to the points' passes.
+4. edge-triangle: an outer edge still through inner triangles goes out of them, by what its first and last
+   crossings along it say about its ends (``_edge_through``): an edge that enters the inner surface at its
+   first crossing and leaves it at its last straddles a tube or a fold with both ends outside (a long skirt's
+   10-18 cm edge across a trouser leg) and moves out whole, along the two triangles' mean normal, until its
+   deepest point is ``thickness`` out; otherwise the end behind a crossing goes ``thickness`` out of that
+   triangle's plane when it is less than ``reach`` through (deeper, the end is not inside the inner garment
+   but behind a fold of it, and pushing it across would tear the cloth).
 
 The inner garment is not moved (one-way coupling: it is pressed by the body only; the outer one is the
 lighter drape over it). Points pushed lose their velocity into the inner surface. All in the simulation
@@ -43,9 +47,16 @@ SAME_BAND_M = 0.02  # m: an outer garment's attachment this close to an inner on
 
 REACH_M = 0.05  # m: an outer point this close over an inner garment's triangle is checked against it
 _SETTLED = 1e-6  # m: a point this close to the thickness is where it belongs (no sweep for rounding)
-SWEEPS = 3  # separate's passes run at most this many times (again while they push a point)
+# separate's passes run at most this many times (again while they push a point: a push out of one face of a
+# crease can put it through the next; CC walk, pants + long skirt, 3 s, before the bone rule: 3 sweeps left 50
+# crossing frames of 156, 8 left 45)
+SWEEPS = 8
+BONE_PASSES = 4  # undo_bone_crossings' passes (a corner put back can cross a neighbour)
+BACK_STEPS = 4  # undo_bone_crossings puts a triangle back by quarters of the way, the least that clears the bone
 CELL_PER_TRIANGLE = 1.5  # the grid's cell, in a typical inner triangle's radii (centroid to farthest corner)
 _TRACK_DEPTH = 0.05  # m: a point this far behind the triangle it was over has not been pushed through it
+_LEVER = 0.25  # an edge moves by its ends while (1 - s)^2 + s^2 of the free ones reaches this: at most twice as far
+_FOLD = 0.3  # |n1 + n2| of two unit normals below which the triangles are the two sides of a flat fold
 
 
 @njit(cache=True)
@@ -166,11 +177,10 @@ def _height(x, i, y, a, normals, t):
 
 
 @njit(cache=True, inline="always")
-def _push(x, v, pushed, i, normals, t, distance):
-    """Move point i by ``distance`` along triangle t's normal and take away its velocity into the surface;
-    ``pushed[i]`` set."""
+def _push(x, v, pushed, i, nx, ny, nz, distance):
+    """Move point i by ``distance`` along unit (nx, ny, nz) and take away its velocity against it; ``pushed[i]``
+    set."""
     pushed[i] = True
-    nx, ny, nz = normals[t, 0], normals[t, 1], normals[t, 2]
     x[i, 0] += distance * nx
     x[i, 1] += distance * ny
     x[i, 2] += distance * nz
@@ -179,6 +189,12 @@ def _push(x, v, pushed, i, normals, t, distance):
         v[i, 0] -= vn * nx
         v[i, 1] -= vn * ny
         v[i, 2] -= vn * nz
+
+
+@njit(cache=True, inline="always")
+def _push_out(x, v, pushed, i, normals, t, distance):
+    """``_push`` along triangle t's normal."""
+    _push(x, v, pushed, i, normals[t, 0], normals[t, 1], normals[t, 2], distance)
 
 
 @njit(cache=True, inline="always")
@@ -251,7 +267,7 @@ def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, radi
                         best_s, best_t = s, t
                 if best_t >= 0:
                     d = _height(x, i, y, triangles[best_t, 0], normals, best_t)  # < 0: how far through
-                    _push(x, v, pushed, i, normals, best_t, thickness - d)
+                    _push_out(x, v, pushed, i, normals, best_t, thickness - d)
                     moved += 1
         # 2. point-triangle proximity
         for i in range(n):
@@ -267,7 +283,7 @@ def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, radi
                 gz = x[i, 2] - (y[a, 2] + y[b, 2] + y[c, 2]) / 3.0
                 lateral2 = gx * gx + gy * gy + gz * gz - d * d
                 if -_TRACK_DEPTH < d < thickness - _SETTLED and lateral2 < 2.25 * radii[t] * radii[t]:
-                    _push(x, v, pushed, i, normals, t, thickness - d)
+                    _push_out(x, v, pushed, i, normals, t, thickness - d)
                     moved += 1
             tracked[i] = -1
             px, py, pz = x[i, 0], x[i, 1], x[i, 2]
@@ -281,7 +297,7 @@ def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, radi
                 if abs(d) < abs(best_d) and _over(px, py, pz, y, a, b, c, normals[t, 0], normals[t, 1], normals[t, 2]):
                     best_d, best_t = d, t
             if best_t >= 0 and best_d < thickness - _SETTLED:
-                _push(x, v, pushed, i, normals, best_t, thickness - best_d)
+                _push_out(x, v, pushed, i, normals, best_t, thickness - best_d)
                 moved += 1
             tracked[i] = best_t
         # 3. edge-edge proximity and 4. edges through a triangle
@@ -290,13 +306,16 @@ def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, radi
             if not (look[p0] or look[p1]):
                 continue
             query += 1
-            for m in range(_near_segment(x[p0, 0], x[p0, 1], x[p0, 2], x[p1, 0], x[p1, 1], x[p1, 2], thickness, origin,
-                                         dims, cell, starts, entries, stamp, query, found, True)):
+            count = _near_segment(x[p0, 0], x[p0, 1], x[p0, 2], x[p1, 0], x[p1, 1], x[p1, 2], thickness, origin, dims,
+                                  cell, starts, entries, stamp, query, found, True)
+            for m in range(count):
                 t = found[m]
                 if _apart(x, p0, p1, y, triangles, t, thickness):
                     continue  # most triangles of a cell are nowhere near the edge
-                moved += _edge_against_triangle(x, v, pushed, movable, p0, p1, y, triangles, normals, t, thickness,
-                                                reach)
+                moved += _edge_near_triangle(x, v, pushed, movable, p0, p1, y, triangles, normals, t, thickness,
+                                             reach)
+            moved += _edge_through(x, v, pushed, movable, p0, p1, y, triangles, normals, found, count, thickness,
+                                   reach)
         total += moved
         if moved == 0:
             break
@@ -316,8 +335,8 @@ def _apart(x, p0, p1, y, triangles, t, pad):
 
 
 @njit(cache=True, inline="always")
-def _edge_against_triangle(x, v, pushed, movable, p0, p1, y, triangles, normals, t, thickness, reach):
-    """Passes 3 and 4 of ``separate`` for outer edge (p0, p1) and inner triangle t; returns the pushes made."""
+def _edge_near_triangle(x, v, pushed, movable, p0, p1, y, triangles, normals, t, thickness, reach):
+    """Pass 3 of ``separate`` for outer edge (p0, p1) and inner triangle t; returns the pushes made."""
     a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
     moved = 0
     for (q0, q1) in ((a, b), (b, c), (c, a)):
@@ -327,27 +346,108 @@ def _edge_against_triangle(x, v, pushed, movable, p0, p1, y, triangles, normals,
         d = ((1.0 - s) * _height(x, p0, y, a, normals, t) + s * _height(x, p1, y, a, normals, t))
         if not -reach < d < thickness - _SETTLED:
             continue
-        w0 = (1.0 - s) if movable[p0] else 0.0
-        w1 = s if movable[p1] else 0.0
-        if w0 + w1 <= 0.0:
+        moved += _push_edge(x, v, pushed, movable, p0, p1, s, normals[t, 0], normals[t, 1], normals[t, 2],
+                            thickness - d)
+    return moved
+
+
+@njit(cache=True, inline="always")
+def _push_edge(x, v, pushed, movable, p0, p1, s, nx, ny, nz, distance):
+    """Move edge (p0, p1)'s point at parameter ``s`` by ``distance`` along unit (nx, ny, nz), its ends each by
+    their share (weights 1 - s and s; a pinned end takes none); returns 1 if it moved, else 0."""
+    w0 = (1.0 - s) if movable[p0] else 0.0
+    w1 = s if movable[p1] else 0.0
+    moving = w0 * (1.0 - s) + w1 * s
+    if moving < _LEVER:
+        return 0  # the point is by a pinned end: its free end would have to go far (distance / moving)
+    share = distance / moving
+    if w0 > 0.0:
+        _push(x, v, pushed, p0, nx, ny, nz, w0 * share)
+    if w1 > 0.0:
+        _push(x, v, pushed, p1, nx, ny, nz, w1 * share)
+    return 1
+
+
+@njit(cache=True, inline="always")
+def _first_and_last_crossing(x, p0, p1, y, triangles, found, count):
+    """The first and last of the triangles ``found[:count]`` that edge (p0, p1) of ``x`` crosses, along it from p0:
+    (first, its segment parameter, last, its parameter); first = -1 when it crosses none."""
+    px, py, pz = x[p0, 0], x[p0, 1], x[p0, 2]
+    dx, dy, dz = x[p1, 0] - px, x[p1, 1] - py, x[p1, 2] - pz
+    first_s, last_s, first, last = 2.0, -1.0, -1, -1
+    for m in range(count):
+        t = found[m]
+        a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+        if segment_misses_triangle_box(y, a, b, c, px, py, pz, x[p1, 0], x[p1, 1], x[p1, 2]):
             continue
-        share = (thickness - d) / (w0 * (1.0 - s) + w1 * s)  # the closest point moves thickness - d
-        if w0 > 0.0:
-            _push(x, v, pushed, p0, normals, t, w0 * share)
-        if w1 > 0.0:
-            _push(x, v, pushed, p1, normals, t, w1 * share)
-        moved += 1
-    hit = segment_crosses_triangle(x[p0, 0], x[p0, 1], x[p0, 2], x[p1, 0] - x[p0, 0], x[p1, 1] - x[p0, 1],
-                                   x[p1, 2] - x[p0, 2], y, a, b, c)[0]
-    if not hit:
-        return moved
-    d0, d1 = _height(x, p0, y, a, normals, t), _height(x, p1, y, a, normals, t)
-    inner, d = (p0, d0) if d0 < d1 else (p1, d1)
-    # a shallow crossing only: an edge straddling a whole fold or tube has both ends outside it, and pushing
-    # one across would make it worse
-    if movable[inner] and d >= -_TRACK_DEPTH:
-        _push(x, v, pushed, inner, normals, t, thickness - d)
-        moved += 1
+        hit, s, _, _ = segment_crosses_triangle(px, py, pz, dx, dy, dz, y, a, b, c)
+        if not hit:
+            continue
+        if s < first_s:
+            first_s, first = s, t
+        if s > last_s:
+            last_s, last = s, t
+    return first, first_s, last, last_s
+
+
+@njit(cache=True)
+def edge_crossings(x, edges, y, triangles, origin, dims, cell, starts, entries, crossed):
+    """Per edge (E, 2) of points ``x`` (N, 3), the first and last triangle (T, 3) of points ``y`` it crosses,
+    along it from its first point, through the grid of ``build_grid``: ``crossed`` (E, 2) int64, -1 for none
+    (``tools/layer_crossings.py`` sorts the crossings left with it)."""
+    stamp = np.full(triangles.shape[0], -1, dtype=np.int64)
+    found = np.empty(triangles.shape[0], dtype=np.int64)
+    for k in range(edges.shape[0]):
+        p0, p1 = edges[k, 0], edges[k, 1]
+        count = _near_segment(x[p0, 0], x[p0, 1], x[p0, 2], x[p1, 0], x[p1, 1], x[p1, 2], 0.0, origin, dims, cell,
+                              starts, entries, stamp, k, found, False)
+        first, _, last, _ = _first_and_last_crossing(x, p0, p1, y, triangles, found, count)
+        crossed[k, 0], crossed[k, 1] = first, last
+
+
+@njit(cache=True, inline="always")
+def _edge_through(x, v, pushed, movable, p0, p1, y, triangles, normals, found, count, thickness, reach):
+    """Pass 4 of ``separate``: outer edge (p0, p1) through inner triangles (``found[:count]``, the candidates)
+    goes out of them. The crossings along the edge, first and last, say which ends are inside the inner
+    surface: one entered at the first crossing and left at the last is a straddle (both ends outside, the
+    edge through a trouser leg or a fold), moved out whole along the two triangles' mean normal until its
+    deepest point is ``thickness`` out (the two planes bound a convex tube); otherwise the end behind the
+    first crossing (left there) or the last (entered there) goes ``thickness`` out of that triangle's plane.
+    Returns the pushes made."""
+    first, first_s, last, last_s = _first_and_last_crossing(x, p0, p1, y, triangles, found, count)
+    if first < 0:
+        return 0
+    dx, dy, dz = x[p1, 0] - x[p0, 0], x[p1, 1] - x[p0, 1], x[p1, 2] - x[p0, 2]
+    enters = dx * normals[first, 0] + dy * normals[first, 1] + dz * normals[first, 2] < 0.0
+    leaves = dx * normals[last, 0] + dy * normals[last, 1] + dz * normals[last, 2] > 0.0
+    if enters and leaves:
+        ux, uy, uz = normals[first, 0] + normals[last, 0], normals[first, 1] + normals[last, 1], normals[first, 2] + \
+            normals[last, 2]
+        norm = math.sqrt(ux * ux + uy * uy + uz * uz)
+        if norm < _FOLD:
+            return 0  # the two sides of a flat fold: no way out along their normals
+        ux, uy, uz = ux / norm, uy / norm, uz / norm
+        # heights over the two planes along the edge: h_first(s) falls, h_last(s) rises; the deepest point of
+        # their wedge is where they meet, and a move along u raises both alike
+        f0, f1 = _height(x, p0, y, triangles[first, 0], normals, first), _height(x, p1, y, triangles[first, 0],
+                                                                                  normals, first)
+        l0, l1 = _height(x, p0, y, triangles[last, 0], normals, last), _height(x, p1, y, triangles[last, 0],
+                                                                              normals, last)
+        slope = (f1 - f0) - (l1 - l0)
+        s = min(max((l0 - f0) / slope, 0.0), 1.0) if slope < -1e-12 else 0.5 * (first_s + last_s)
+        deepest = f0 + s * (f1 - f0)
+        rise = ux * normals[first, 0] + uy * normals[first, 1] + uz * normals[first, 2]
+        distance = (thickness - deepest) / rise
+        if not 0.0 < distance < math.sqrt(dx * dx + dy * dy + dz * dz):
+            return 0  # a wedge deeper than the edge is long is no tube the edge spans
+        return _push_edge(x, v, pushed, movable, p0, p1, s, ux, uy, uz, distance)
+    moved = 0
+    for (inside, end, t) in ((not enters, p0, first), (not leaves, p1, last)):
+        if inside and movable[end]:
+            d = _height(x, end, y, triangles[t, 0], normals, t)
+            if -reach < d < thickness:
+                _push_out(x, v, pushed, end, normals, t, thickness - d)
+                moved += 1
     return moved
 
 
@@ -371,6 +471,52 @@ def count_edges_through(x, edges, y, triangles, origin, dims, cell, starts, entr
                 count += 1
                 break
     return count
+
+
+@njit(cache=True)
+def undo_bone_crossings(x, v, x_kept, v_kept, triangles, starts, ends, passes):
+    """The body comes first: a triangle (T, 3) of ``x`` (N, 3) that a limb bone (``starts``, ``ends``: (B, 3))
+    crosses and did not cross at ``x_kept`` (the positions the body's handling left) has its corners put back
+    towards there, by the least quarter of the way that clears the bone (velocities ``v`` from ``v_kept``).
+    Putting a corner back can cross a neighbour that shares it, so up to ``passes`` passes, until one puts
+    nothing back (all back: nothing crosses that did not). Returns the corners moved."""
+    restored = 0
+    saved = np.empty((3, 3))  # a triangle's corners before they go back
+    for _ in range(passes):
+        moved = 0
+        for k in range(starts.shape[0]):
+            px, py, pz = starts[k, 0], starts[k, 1], starts[k, 2]
+            qx, qy, qz = ends[k, 0], ends[k, 1], ends[k, 2]
+            for t in range(triangles.shape[0]):
+                a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+                if segment_misses_triangle_box(x, a, b, c, px, py, pz, qx, qy, qz):
+                    continue
+                if not segment_crosses_triangle(px, py, pz, qx - px, qy - py, qz - pz, x, a, b, c)[0]:
+                    continue
+                if segment_crosses_triangle(px, py, pz, qx - px, qy - py, qz - pz, x_kept, a, b, c)[0]:
+                    continue  # the body's handling left it crossed: not the layers' doing
+                # back by the least of BACK_STEPS equal steps that clears the bone (all the way clears it): a
+                # corner put all the way back while its neighbours stay pushed stretches their springs
+                for j in range(3):
+                    for k3 in range(3):
+                        saved[j, k3] = x[triangles[t, j], k3]
+                for step in range(1, BACK_STEPS + 1):
+                    fraction = step / BACK_STEPS
+                    for j in range(3):
+                        i = triangles[t, j]
+                        for k3 in range(3):
+                            x[i, k3] = saved[j, k3] + fraction * (x_kept[i, k3] - saved[j, k3])
+                    if not segment_crosses_triangle(px, py, pz, qx - px, qy - py, qz - pz, x, a, b, c)[0]:
+                        break
+                for j in range(3):
+                    i = triangles[t, j]
+                    if x[i, 0] != saved[j, 0] or x[i, 1] != saved[j, 1] or x[i, 2] != saved[j, 2]:
+                        v[i, :] = v_kept[i, :]
+                        moved += 1
+        restored += moved
+        if moved == 0:
+            break
+    return restored
 
 
 class InnerSurface:
@@ -401,6 +547,15 @@ class InnerSurface:
                             np.ascontiguousarray(edges, dtype=np.int64), self.positions, self.triangles, self.normals,
                             self.radii, float(thickness), self.reach, self.origin, self.dims, self.cell, self.starts,
                             self.entries, tracked, SWEEPS))
+
+    def crossings(self, x: np.ndarray, edges: np.ndarray) -> np.ndarray:
+        """(E, 2) int64: per edge (E, 2) of points ``x`` (N, 3), the first and last of these triangles it crosses
+        along it (-1: none)."""
+        crossed = np.empty((len(edges), 2), dtype=np.int64)
+        edge_crossings(np.ascontiguousarray(x, dtype=np.float64), np.ascontiguousarray(edges, dtype=np.int64),
+                       self.positions, self.triangles, self.origin, self.dims, self.cell, self.starts, self.entries,
+                       crossed)
+        return crossed
 
     def edges_through(self, x: np.ndarray, edges: np.ndarray) -> int:
         """How many edges (E, 2) of points ``x`` (N, 3) cross one of these triangles."""
