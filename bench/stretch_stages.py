@@ -5,7 +5,7 @@ JSON lines, the structural and shear springs' p99 and maximum length / rest leng
 substeps) before and after each collision handling of a substep: the full handling after the length
 correction, and the one that ends the strain limiting (``GarmentSolver._limit_strain``); then, over the
 frames, which springs are past 1.05 at a frame's end: structural or shear, with an end in contact (the
-collider's contact cache) and with an end that touched two volumes (a pinch).
+solver state's contact cache) and with an end that touched two volumes (a pinch).
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ def main() -> None:
             continue
         long = np.flatnonzero(solver.stretches > LONG)
         ends = model.springs[long]
-        cache = solver.collider.cache
+        cache = solver.state.contacts  # (N, cache_size) volumes each point touched, most recent first
         touching = cache[:, 0] >= 0
         pinched = touching & (cache[:, -1] >= 0) & (cache[:, -1] != cache[:, 0])
         counts["springs past 1.05 (spring-frames)"] += len(long)
