@@ -1,8 +1,8 @@
 """Where the stretch of a garment on a real clip comes from (issue 11, target d), stage by stage.
 
-``python bench/stretch_stages.py CLIP.bvh GARMENT [--seconds S]`` plays the clip at 60 fps and prints, as
-JSON lines, the structural and shear springs' p99 and maximum length / rest length (mean and worst over the
-substeps) before and after each collision handling of a substep: the full handling after the length
+``python bench/stretch_stages.py CLIP.bvh GARMENT [--seconds S] [--fps F] [--speed X]`` plays the clip (60 fps,
+1x) and prints, as JSON lines, the structural and shear springs' p99 and maximum length / rest length (mean and
+worst over the substeps) before and after each collision handling of a substep: the full handling after the length
 correction, and the one that ends the strain limiting (``GarmentSolver._limit_strain``); then, over the
 frames, which springs are past 1.05 at a frame's end: structural or shear, with an end in contact (the
 solver state's contact cache) and with an end that touched two volumes (a pinch). With ``--where``, first a
@@ -60,9 +60,11 @@ def main() -> None:
     parser.add_argument("clip")
     parser.add_argument("garment")
     parser.add_argument("--seconds", type=float, default=3.0)
+    parser.add_argument("--fps", type=float, default=60.0, help="frame rate the clip is played at")
+    parser.add_argument("--speed", type=float, default=1.0, help="playback speed")
     parser.add_argument("--where", action="store_true", help="a line per frame that misses the stretch target")
     args = parser.parse_args()
-    source = bvh_source(args.clip, loop=False)
+    source = bvh_source(args.clip, loop=False, speed=args.speed)
     character = make_character(source.rest_pose, source.joint_map, [args.garment], DEFAULT_PARAMS, 1.0,
                                motion=source.fit_poses())  # as evaluate dresses it
     solver = character.solvers[0]
@@ -94,7 +96,7 @@ def main() -> None:
     places = spring_places(model)
     volume_names = np.array(solver.volumes.names())
     for frame, (t, pose, reports) in enumerate(simulate_frames(source, character,
-                                                               np.arange(int(args.seconds * 60) + 1) / 60.0)):
+                                                               np.arange(int(args.seconds * args.fps) + 1) / args.fps)):
         if reports is None:
             continue
         long = np.flatnonzero(solver.stretches > LONG)
