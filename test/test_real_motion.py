@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from garment_sim_ros.cloth.garments import GARMENT_NAMES
@@ -44,3 +45,34 @@ def test_a_thigh_raised_against_the_belly_does_not_throw_the_skirt():
                        after_dressing=pinch)
     assert row["guard_firings"] == 0 and row["structural_stretch_max"] < 10.0
     assert row["max_depth_mm"] < 5.0
+
+
+def test_long_skirt_goes_round_a_wide_stride():
+    """xia_angry's widest strides (thighs 70-76 deg apart, frames 4-9 at 1x, 60 fps) need more hem than a
+    closed long skirt has: its hem ring was 11-13 % longer than at rest there (structural p99 1.10). The
+    vent (``garments._vent``) opens it below the ring that goes round the stride: stretch (d) holds over
+    the whole clip, and the hem's springs stay within the p99 target in those frames."""
+    hem_stretch = []
+
+    def watch_hem(character):
+        solver = character.solvers[0]
+        model = solver.model
+        hem = set(model.rings["hem"][0].tolist())
+        ends = model.springs[: model.num_correction_springs]
+        on_hem = np.flatnonzero([a in hem and b in hem for a, b in ends])
+        advance = solver.advance
+
+        def advance_and_measure(*args, **kwargs):
+            report = advance(*args, **kwargs)
+            x = solver.state.positions
+            hem_stretch.append(np.linalg.norm(x[ends[on_hem, 1]] - x[ends[on_hem, 0]], axis=1)
+                               / model.rest_lengths[on_hem])
+            return report
+
+        solver.advance = advance_and_measure
+
+    row = evaluate_run(Run(str(DATA / "xia_angry_13_000.bvh"), "long_skirt", 1.0, 60.0, None), after_dressing=watch_hem)
+    assert row["frames"] == 69 and len(hem_stretch) == 69
+    assert row["targets"]["d"] is True, (row["structural_stretch_p99"], row["structural_stretch_max"])
+    widest = np.concatenate(hem_stretch[3:9])
+    assert np.percentile(widest, 99) <= 1.05

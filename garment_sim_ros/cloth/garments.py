@@ -40,6 +40,15 @@ _SHIN_EASE_PER_THIGH = 0.53
 _UNDERARM_EASE_PER_STATURE = 0.0086
 
 
+# The stride a long skirt is cut for: the angle between the thighs, legs straight and swung apart front and
+# back. Level walking spans about 40 deg of hip flexion-extension (Perry & Burnfield, Gait Analysis, 2nd ed.,
+# 2010); the stylised walks of the shared clips go further: 62 to 76 deg at their widest (CC walk 62, cmu_131
+# 65, xia_angry 76), measured between the thigh bones in every 1/60 s frame of their first 3 s. A long
+# stride's 80 deg covers them. The cut is conservative (legs straight, the hem as deep down them as at rest):
+# xia_angry's closed hem was stretched 11-13 % in its widest strides; this loop is 39 % longer than that hem.
+_STRIDE = math.radians(80.0)
+
+
 def _crotch_drop(body: BodyMeasurements) -> float:
     """How far (m) the trousers' crotch seam hangs below the body's crotch: room for the thighs' swing."""
     return body.thigh_radius * (1.0 + _CROTCH_EASE_PER_THIGH)
@@ -129,8 +138,56 @@ def _counts(resolution: float, around: int, levels: int) -> tuple[int, int]:
     return max(8, 2 * round(around * resolution / 2)), max(3, round(levels * resolution))
 
 
+def _ellipse_perimeter(rx: np.ndarray, ry: np.ndarray) -> np.ndarray:
+    """Ramanujan's approximation (relative error under 1e-4 for rx/ry up to 3)."""
+    h = ((rx - ry) / (rx + ry)) ** 2
+    return np.pi * (rx + ry) * (1.0 + 3.0 * h / (10.0 + np.sqrt(4.0 - 3.0 * h)))
+
+
+def _stride_girth(body: BodyMeasurements, z: np.ndarray) -> np.ndarray:
+    """The shortest loop (m) round both legs at height ``z`` (root frame) in a ``_STRIDE`` stride: the loop
+    round two circles of the legs' radius there whose centres are the two leg axes' points at that depth below
+    the hip joints (2 d + 2 pi r, d their distance). The legs are straight and the points' depth along each
+    leg is the rest pose's, as a hem hanging at a fixed length of cloth from the waist meets the legs."""
+    hip_joint_z = 2.0 * body.knee_z - body.ankle_z  # thigh and shin equally long (Winter: 0.245 and 0.246 H)
+    depth = np.maximum(hip_joint_z - z, 0.0)
+    apart = np.hypot(2.0 * depth * math.sin(0.5 * _STRIDE), 2.0 * body.leg_y)
+    radius = np.where(z < body.knee_z, np.interp(z, [body.ankle_z, body.knee_z], [body.ankle_radius, body.knee_radius]),
+                      np.interp(z, [body.knee_z, body.crotch_z], [body.knee_radius, body.thigh_radius]))
+    return 2.0 * apart + 2.0 * np.pi * radius
+
+
+def _vent(levels: list[tuple[float, float, float, float, float]], body: BodyMeasurements) -> int:
+    """The first ring (from the top) of a walking vent: the rings from there to the hem are shorter than the
+    loop round both legs in a ``_STRIDE`` stride (``_stride_girth``), so the skirt opens at the back from the
+    ring above them down; ``len(levels)`` (no vent) when every ring goes round the stride. Real straight long
+    skirts have a vent or slit for the same reason: a hem that does not go round the stride stretches (the
+    long skirt's hem ring 11-13 % longer than at rest in xia_angry's widest strides)."""
+    z, rx, ry = (np.array([level[k] for level in levels]) for k in (2, 3, 4))
+    goes_round = (_ellipse_perimeter(rx, ry) >= _stride_girth(body, z)) | (z >= body.crotch_z)
+    return int(np.flatnonzero(goes_round)[-1]) + 1
+
+
+def _open_at_back(vertices: np.ndarray, triangles: np.ndarray, rings: list[np.ndarray], first: int):
+    """The tube ``_tube`` built, cut open along its back centre line from ring ``first`` down: those rings'
+    back-centre vertices are doubled and the quads on their right (seen from outside: towards the ring's
+    end) take the copies. Each opened ring becomes the open chain from the back centre round to its copy."""
+    around = len(rings[0])
+    back = around // 2  # ring index 0 is the front centre (+x)
+    opened = np.array([ring[back] for ring in rings[first:]], dtype=np.int64)
+    copies = len(vertices) + np.arange(len(opened))
+    column, level = triangles % around, triangles // around
+    seam_quads = np.all((column == back - 1) | (column == back), axis=1)
+    retarget = seam_quads[:, None] & (column == back) & (level >= first)
+    triangles = triangles.copy()
+    triangles[retarget] = copies[level[retarget] - first]
+    rings = [*rings[:first], *[np.concatenate([ring[back:], ring[:back], [copy]]) for ring, copy in
+                               zip(rings[first:], copies)]]
+    return np.concatenate([vertices, vertices[opened]]), triangles, rings
+
+
 def _skirt(name: str, body: BodyMeasurements, resolution: float, hem_z: float, flare: float,
-           around: int, levels: int) -> GarmentMesh:
+           around: int, levels: int, vented: bool = False) -> GarmentMesh:
     ease = 0.012  # cloth stands this far off the body at the waist and hips
     radii = _interp_section([
         (body.waist_z, body.waist_x, body.waist_rx + ease, body.waist_ry + ease),
@@ -138,7 +195,10 @@ def _skirt(name: str, body: BodyMeasurements, resolution: float, hem_z: float, f
         (hem_z, body.leg_x, (body.hip_rx + ease) * flare, (body.hip_ry + ease) * flare),
     ])
     n_around, n_levels = _counts(resolution, around, levels)
-    vertices, triangles, rings = _tube(_profile(body.waist_z, hem_z, n_levels, radii), n_around)
+    profile = _profile(body.waist_z, hem_z, n_levels, radii)
+    vertices, triangles, rings = _tube(profile, n_around)
+    if vented and (first := _vent(profile, body)) < len(rings):
+        vertices, triangles, rings = _open_at_back(vertices, triangles, rings, first)
     return GarmentMesh(name, vertices, triangles, {"pelvis": rings[0]}, {"waistband": [rings[0]], "hem": [rings[-1]]},
                        shared_attachments=_waistband(body))
 
@@ -150,7 +210,7 @@ def short_skirt(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0)
 
 def long_skirt(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> GarmentMesh:
     hem_z = body.knee_z - 0.7 * (body.knee_z - body.ankle_z)  # lower calf
-    return _skirt("long_skirt", body, resolution, hem_z, flare=1.8, around=48, levels=13)
+    return _skirt("long_skirt", body, resolution, hem_z, flare=1.8, around=48, levels=13, vented=True)
 
 
 def _neckline_half_width(body: BodyMeasurements, ease: float) -> float:
