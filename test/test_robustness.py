@@ -135,9 +135,10 @@ def test_a_garment_step_gone_bad_is_restored_reported_and_never_published(graph,
     assert graph.spin_until(lambda: int(node.last_diagnostics.get("solver_restored", 0)) == 3, 20.0), \
         node.last_diagnostics
     frames = node.stats.total_frames
-    assert graph.spin_until(lambda: node.stats.total_frames > frames + 10 and len(probe.markers) > 10, 20.0)
+    assert graph.spin_until(lambda: node.stats.total_frames > frames + 10 and len(probe.markers) > 10, 20.0), \
+        (node.stats.total_frames - frames, len(probe.markers), node.loop.status, node.loop.detail)
     assert_sane_markers(probe, node.loop.character.root.position[:2])
-    assert node.frame_errors == 0 and node.loop.status == Status.RUNNING
+    assert node.frame_errors == 0 and node.loop.status == Status.RUNNING, (node.frame_errors, node.loop.detail)
     assert "a garment step went bad" in capfd.readouterr().err
 
 
