@@ -1,5 +1,5 @@
-"""What the detailed body (forearms, neck, feet: 15 volumes) costs a garment per frame on a real clip, against
-the memo's 10 volumes (issue 11, target b).
+"""What the forearms (12 volumes) cost a garment per frame on a real clip, against the memo's 10 volumes
+(issue 11, target b).
 
 ``python bench/forearms.py CLIP.bvh [CLIP ...] [--garment G] [--seconds S] [--rounds R]`` plays each clip at
 60 fps from its start on each body in turn, ``--rounds`` times (alternating, so a loaded machine slows both alike),
@@ -41,20 +41,20 @@ def compare(clip: str, garment: str, seconds: float, rounds: int) -> None:
     collision: dict[bool, list[float]] = {False: [], True: []}
     last: dict[bool, dict] = {}
     for _ in range(rounds):
-        for detailed in (False, True):
+        for forearms in (False, True):
             character = make_character(source.rest_pose, source.joint_map, [garment], DEFAULT_PARAMS,
-                                       motion=source.fit_poses(), detailed=detailed)
+                                       motion=source.fit_poses(), forearms=forearms)
             frames = [r[0] for _, _, r in simulate_frames(source, character, times) if r is not None]
-            costs[detailed] += [r.integration_s + r.correction_s + r.collision_s for r in frames]
-            collision[detailed] += [r.collision_s for r in frames]
-            last[detailed] = {"volumes": len(character.body.volumes),
+            costs[forearms] += [r.integration_s + r.correction_s + r.collision_s for r in frames]
+            collision[forearms] += [r.collision_s for r in frames]
+            last[forearms] = {"volumes": len(character.body.volumes),
                               "substeps_per_frame": round(float(np.mean([r.substeps for r in frames])), 2),
                               "bone_frames": sum(r.bones_through > 0 for r in frames),
                               "structural_stretch_max": round(max(r.structural_stretch_max for r in frames), 2)}
-    for detailed in (False, True):
-        print(json.dumps({"clip": clip, "garment": garment, **last[detailed], "frames": len(times) - 1,
-                          "solver_ms_median": round(1e3 * float(np.median(costs[detailed])), 3),
-                          "collision_ms_median": round(1e3 * float(np.median(collision[detailed])), 3)}), flush=True)
+    for forearms in (False, True):
+        print(json.dumps({"clip": clip, "garment": garment, **last[forearms], "frames": len(times) - 1,
+                          "solver_ms_median": round(1e3 * float(np.median(costs[forearms])), 3),
+                          "collision_ms_median": round(1e3 * float(np.median(collision[forearms])), 3)}), flush=True)
 
 
 if __name__ == "__main__":

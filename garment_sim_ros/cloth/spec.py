@@ -16,7 +16,7 @@ A spec is a YAML file (documented in the README, "Your own garments")::
     layer: 0                        # 0 closest to the skin
     max_vertices: 6000              # more is refused (decimate: --decimate / decimate: true)
     decimate: false
-    detailed_body: true             # the 15-volume body (neck, forearms, feet); false: the memo's 10 volumes
+    detailed_body: false            # fit the 15-volume body (neck, forearms, feet)
 
 ``load_spec`` validates a file (``SpecError`` names the file and the key); ``BUILTIN_SPECS`` are the four
 procedural garments as specs; ``resolve_garment`` turns a name or a path into a spec; ``build_mesh``
@@ -85,7 +85,7 @@ class GarmentSpec:
     layer: int = 0
     max_vertices: int = DEFAULT_MAX_VERTICES
     decimate: bool = False
-    detailed_body: bool = True  # forearms and hands swing against every garment (a skirt at the hip)
+    detailed_body: bool = False
     path: Path | None = None  # the spec file
 
     @property
@@ -94,7 +94,7 @@ class GarmentSpec:
 
 
 BUILTIN_SPECS: dict[str, GarmentSpec] = {
-    name: GarmentSpec(name, None, procedural=name, layer=_LAYERS[name])
+    name: GarmentSpec(name, None, procedural=name, layer=_LAYERS[name], detailed_body=name == "one_piece")
     for name in GARMENT_NAMES
 }
 
@@ -225,7 +225,7 @@ def load_spec(path: str | Path) -> GarmentSpec:
         attach=tuple(_attach(entry, f"{where}: attach[{k}]") for k, entry in enumerate(attach)),
         material=material, layer=layer, max_vertices=max_vertices,
         decimate=_get(data, "decimate", bool, where, False),
-        detailed_body=_get(data, "detailed_body", bool, where, True), path=path,
+        detailed_body=_get(data, "detailed_body", bool, where, False), path=path,
     )
 
 

@@ -50,6 +50,7 @@ class Run:
     preset: str = "si"
     resolution: float = 1.0
     decimate: int | None = None  # a mesh file's vertex budget (--decimate)
+    forearms: bool = True  # the body's forearm volumes (``make_character``); False: the memo's 10 volumes
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -121,7 +122,8 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
     tic = time.perf_counter()
     source = bvh_source(run.clip, loop=False, speed=run.speed)
     character = make_character(source.rest_pose, source.joint_map, run.garment.split("+"), preset(run.preset),
-                               run.resolution, decimate_to=run.decimate, motion=source.fit_poses())
+                               run.resolution, decimate_to=run.decimate, motion=source.fit_poses(),
+                               forearms=run.forearms)
     seconds = source.duration if run.duration is None else min(source.duration, run.duration)
     frames = int(math.floor(seconds * run.fps + 1e-9))
     if frames < 1:
