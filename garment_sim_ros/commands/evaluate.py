@@ -66,6 +66,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--resolution", type=float, default=1.0, help="garment resolution factor")
     parser.add_argument("--decimate", type=int, default=None, metavar="VERTICES", help=DECIMATE_HELP)
     parser.add_argument("--preset", default="si", choices=sorted(PRESETS), help="parameter preset")
+    parser.add_argument("--no-forearms", action="store_true",
+                        help="the memo's 10 volumes for the skirts and trousers (default: plus the forearms)")
     parser.add_argument("--json", action="store_true", help="one JSON object per run, then a summary object")
 
 
@@ -93,7 +95,8 @@ def plan(args) -> list[Run]:
     for clip in args.clips:
         if not Path(clip).is_file():
             raise ValueError(f"no such clip: {clip}")
-    return [Run(clip, garment, speed, fps, args.duration, args.preset, args.resolution, args.decimate)
+    return [Run(clip, garment, speed, fps, args.duration, args.preset, args.resolution, args.decimate,
+                not args.no_forearms)
             for clip in args.clips for garment in garments for speed in speeds for fps in rates]
 
 
