@@ -62,9 +62,11 @@ def _median_ms(samples: list[float]) -> float:
 
 
 def character_benchmark(garment: str, params: SolverParams, frame_s: float, frames: int, warmup: int,
-                        resolution: float = 1.0, rerun: bool = True, gait: str = "walk") -> dict:
+                        resolution: float = 1.0, rerun: bool = True, gait: str = "walk",
+                        forearms: bool = True) -> dict:
     """Dress the procedural character (``gait``) in ``garment`` at ``resolution`` and time ``frames``
-    frames of ``frame_s`` seconds after ``warmup`` untimed ones. Returns the per-frame medians."""
+    frames of ``frame_s`` seconds after ``warmup`` untimed ones (``forearms``: ``make_character``'s). Returns the
+    per-frame medians."""
     from .rerun_log import RerunLogger, frame_payload
     from .runtime.marker_cdr import serialize_marker_array
     from .runtime.markers import frame_markers
@@ -76,7 +78,7 @@ def character_benchmark(garment: str, params: SolverParams, frame_s: float, fram
         raise ValueError(f"frame time must be > 0 s, got {frame_s!r}")
     source = procedural_source(gait)
     character = make_character(source.rest_pose, source.joint_map, [garment], params, resolution,
-                               motion=source.fit_poses())
+                               motion=source.fit_poses(), forearms=forearms)
     solver = character.solvers[0]
     character.dress(source.pose(0.0), 0.0, source.motion(0.0))
 

@@ -18,7 +18,9 @@ joint's rotation relative to its parent turns from the canonical pose's to the t
 (slerp), the skeleton is composed down the tree with its own bones, and the cloth follows.
 
 ``make_character`` is the one way to get one from a skeleton: fit the body to its rest pose, then dress
-it; a one-piece needs the detailed body (``detailed_body`` in its spec), so the garments choose the fit.
+it; a one-piece needs the detailed body (``detailed_body`` in its spec), so the garments choose the fit, and
+every other garment gets the memo's 10 volumes plus the forearms (a hand swinging past the hip or resting on
+it, issue 11; not the feet, which would push trouser cuffs about); ``forearms=False``: the memo's 10 (Table 1).
 
 Every garment comes from a spec (``cloth.spec``: a built-in's procedural source or the user's mesh),
 with its material's parameters in place of the run's. A mesh whose free vertices start inside the
@@ -66,14 +68,15 @@ from .transforms import compose, inverse, quat_slerp, transform_points, yaw_quat
 def make_character(rest_pose: SkeletonPose, joint_map: dict[str, str], garments: Sequence[str | GarmentSpec],
                    params: SolverParams, resolution: float = 1.0, *, garment_path: Sequence[str] = (),
                    decimate_to: int | None = None, overrides: BodyOverrides | None = None,
-                   motion: Sequence[SkeletonPose] = ()) -> "DressedCharacter":
+                   motion: Sequence[SkeletonPose] = (), forearms: bool = True) -> "DressedCharacter":
     """Fit a body to ``rest_pose`` (``joint_map``: role -> frame name; ``overrides``: per-volume changes,
     ``config/body.yaml``; ``motion``: poses it will be driven with, ``MotionSource.fit_poses``, so that no
     arm bone starts inside its trunk) and dress it in ``garments`` (built-in names, spec files or specs): the
-    detailed 15-volume body when any garment's spec asks for it (the one-piece), else the 10-volume one."""
+    detailed 15-volume body when any garment's spec asks for it (the one-piece), else the 10-volume one with
+    the forearms (12; ``forearms=False``: without, the memo's protocol)."""
     specs = [resolve_garment(g, garment_path) for g in garments]
     body = fit_body(rest_pose, joint_map, detailed=any(s.detailed_body for s in specs), overrides=overrides,
-                    motion=motion)
+                    motion=motion, forearms=forearms)
     return DressedCharacter(body, specs, params, resolution, garment_path, decimate_to)
 
 

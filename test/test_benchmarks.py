@@ -48,6 +48,7 @@ def test_table1_json_has_every_key_and_the_memo_row(capsys):
         assert row["memo"] == memo
         assert row["ratio"] == pytest.approx(memo["total"] * 1e3 / row["total_ms"], rel=1e-2)
         assert row["springs"] > row["mass_points"] > 0
+    assert rows[0]["volumes"] == 10  # the memo's body for the skirt (every other command: the detailed one)
     assert rows[1]["volumes"] == 15  # the one-piece is simulated on the detailed body
 
 

@@ -51,7 +51,8 @@ def test_joints_are_the_clip_sampled_at_the_times(run):
 
 def test_volumes_are_the_fitted_body_posed_on_the_joints(run):
     source = bvh_source(str(CLIP), loop=False, speed=SPEED)
-    volumes = fit_body(source.rest_pose, source.joint_map, motion=source.fit_poses()).volumes  # pants: the basic body
+    volumes = fit_body(source.rest_pose, source.joint_map, motion=source.fit_poses(),
+                       forearms=True).volumes  # pants: the basic body and the forearms
     assert list(run.volume_names) == volumes.names()
     assert list(run.volume_kinds) == [{0: "sphere", 1: "ellipsoid", 2: "capsule"}[int(k)] for k in volumes.kinds]
     assert np.array_equal(run.volume_radii, volumes.radii) and np.array_equal(run.volume_cuts, volumes.cuts)

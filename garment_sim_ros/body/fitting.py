@@ -3,7 +3,8 @@
 ``fit_body(rest_pose, joint_map)`` encloses the body, in its canonical standing pose
 (``body.canonical.canonical_pose``: legs straight down, spine up, arms in an A-pose), in the memo's
 10 volumes (pelvis, torso,
-chest, head, upper and lower legs, upper arms), or 15 with ``detailed=True`` (plus neck,
+chest, head, upper and lower legs, upper arms), 12 with ``forearms=True`` (plus the forearms: a hand swinging
+past the hip or resting on it, against a skirt), or 15 with ``detailed=True`` (plus neck,
 forearms, feet: the one-piece dress), and derives the ``BodyMeasurements`` garments are cut
 from, so a tall and a short skeleton both get garments that fit.
 
@@ -238,7 +239,7 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
-def _fit_volumes(fit: _Fit, detailed: bool) -> tuple[list[Volume], dict[str, float], list[str]]:
+def _fit_volumes(fit: _Fit, detailed: bool, forearms: bool) -> tuple[list[Volume], dict[str, float], list[str]]:
     sides = ("left", "right")
     hip_joints = [fit.local(fit.world(f"{s}_upper_leg")) for s in sides]
     knees = [fit.world(f"{s}_lower_leg") for s in sides]
@@ -323,11 +324,13 @@ def _fit_volumes(fit: _Fit, detailed: bool) -> tuple[list[Volume], dict[str, flo
         volumes.append(fit.volume("neck", neck_role, neck_start, head - neck_start, 0.0,
                                   float(np.linalg.norm(head - neck_start)), neck_radius, neck_radius, TRUNK_TAPER))
         for s in sides:
+            if f"{s}_foot" in fit.map:
+                volumes.append(_foot(fit, s))
+    if detailed or forearms:
+        for s in sides:
             if f"{s}_lower_arm" in fit.map:
                 volumes.append(limb(f"{s}_lower_arm", f"{s}_hand", "forearm_radius", FOREARM_RADIUS_PER_LENGTH,
                                     FOREARM_PER_STATURE * stature))
-            if f"{s}_foot" in fit.map:
-                volumes.append(_foot(fit, s))
     spine_z = float(fit.local(fit.world("spine"))[2]) if "spine" in fit.map else math.inf
     levels = {"stature": stature, "hip_joint_z": hip_joint_z, "leg_x": leg_x, "leg_y": leg_y, "spine_z": spine_z,
               "thigh": float(np.mean(thigh)), "shin": float(np.mean(shin)), "shoulder_z": shoulder_z,
@@ -422,7 +425,8 @@ def _frame_poses(pose: SkeletonPose, frames: tuple[str, ...]) -> tuple[np.ndarra
 
 
 def fit_body(rest_pose: SkeletonPose, joint_map: Mapping[str, str], detailed: bool = False,
-             overrides: BodyOverrides | Mapping | None = None, motion: Sequence[SkeletonPose] = ()) -> Body:
+             overrides: BodyOverrides | Mapping | None = None, motion: Sequence[SkeletonPose] = (),
+             forearms: bool = False) -> Body:
     """Fit the bounding volumes and measurements of the body the skeleton's rest pose defines.
 
     ``rest_pose``: the canonical standing pose (``body.canonical.canonical_pose``); volumes are
@@ -430,6 +434,7 @@ def fit_body(rest_pose: SkeletonPose, joint_map: Mapping[str, str], detailed: bo
     ``overrides``: a ``BodyOverrides`` (``load_body_overrides``) or a mapping
     ``{volume: {radii: [x, y, z], cut: [lo, hi], offset_position: [x, y, z]}}`` (metres, the
     volume's local frame / its joint frame), applied after fitting.
+    ``forearms``: the 10 volumes plus the forearms (12; the detailed body has them anyway).
     ``motion``: poses of the same skeleton the body will be driven with (``MotionSource.fit_poses``: the
     pose it is dressed on, as in the node); trunk volumes an arm bone comes near in them are narrowed
     (``body.narrowing``).
@@ -440,10 +445,9 @@ def fit_body(rest_pose: SkeletonPose, joint_map: Mapping[str, str], detailed: bo
     if not isinstance(overrides, BodyOverrides):
         overrides = check_overrides({"volumes": overrides} if overrides else None, "overrides")
     fit = _Fit(rest_pose, joint_map)
-    volumes, levels, estimated = _fit_volumes(fit, detailed)
+    volumes, levels, estimated = _fit_volumes(fit, detailed, forearms)
     volumes, narrowed = narrow_for_motion(volumes, joint_map, motion, levels["stature"])
-    order = DETAILED_VOLUMES if detailed else BASIC_VOLUMES
-    volumes.sort(key=lambda v: order.index(v.name))
+    volumes.sort(key=lambda v: DETAILED_VOLUMES.index(v.name))  # the basic ones first, in BASIC_VOLUMES' order
     volume_set = VolumeSet(tuple(apply_overrides(volumes, overrides)))
     rest_frames = [rest_pose.frame(f) for f in volume_set.frames]
     volume_set = volume_set.at_rest_in(np.array([p for p, _ in rest_frames]), np.array([q for _, q in rest_frames]))

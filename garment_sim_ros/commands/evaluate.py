@@ -50,6 +50,7 @@ class Run:
     preset: str = "si"
     resolution: float = 1.0
     decimate: int | None = None  # a mesh file's vertex budget (--decimate)
+    forearms: bool = True  # the body's forearm volumes (``make_character``); False: the memo's 10 volumes
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -65,6 +66,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--resolution", type=float, default=1.0, help="garment resolution factor")
     parser.add_argument("--decimate", type=int, default=None, metavar="VERTICES", help=DECIMATE_HELP)
     parser.add_argument("--preset", default="si", choices=sorted(PRESETS), help="parameter preset")
+    parser.add_argument("--no-forearms", action="store_true",
+                        help="the memo's 10 volumes for the skirts and trousers (default: plus the forearms)")
     parser.add_argument("--json", action="store_true", help="one JSON object per run, then a summary object")
 
 
@@ -92,7 +95,8 @@ def plan(args) -> list[Run]:
     for clip in args.clips:
         if not Path(clip).is_file():
             raise ValueError(f"no such clip: {clip}")
-    return [Run(clip, garment, speed, fps, args.duration, args.preset, args.resolution, args.decimate)
+    return [Run(clip, garment, speed, fps, args.duration, args.preset, args.resolution, args.decimate,
+                not args.no_forearms)
             for clip in args.clips for garment in garments for speed in speeds for fps in rates]
 
 
@@ -121,7 +125,8 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
     tic = time.perf_counter()
     source = bvh_source(run.clip, loop=False, speed=run.speed)
     character = make_character(source.rest_pose, source.joint_map, run.garment.split("+"), preset(run.preset),
-                               run.resolution, decimate_to=run.decimate, motion=source.fit_poses())
+                               run.resolution, decimate_to=run.decimate, motion=source.fit_poses(),
+                               forearms=run.forearms)
     seconds = source.duration if run.duration is None else min(source.duration, run.duration)
     frames = int(math.floor(seconds * run.fps + 1e-9))
     if frames < 1:
