@@ -130,8 +130,9 @@ def run_substeps(x, v, contacts, garment, scratch, uniform, frame_velocity, omeg
     ``omega`` (K,) rad/s, ``fractions`` (K, 2) of the frame at its ends; the tuples as ``advance_substeps``
     packs them; ``pressing`` the volume pairs that may be pressed together (``Collider``), ``press`` their
     (clearance, gap) m. Returns (static hits, dynamic hits, deepest overlap pressed m); a non-finite force
-    sets ``x`` to NaN and stops, as the reference loop does. Adds cycle counts to ``ticks`` (4,): the correction's, the collision's (with the
-    volumes' poses per substep), the whole call's; the rest of the call is the integration's."""
+    sets ``x`` to NaN and stops, as the reference loop does. Adds cycle counts to ``ticks`` (4,): the
+    correction's, the collision's (with the volumes' poses per substep), the whole call's; the rest of the
+    call is the integration's."""
     start = _cycles()
     (mass, inv_mass, springs, rest, stiffness, damping, attached, tether_anchors, tether_lengths, edges, edge_rest,
      triangles) = garment
