@@ -395,19 +395,18 @@ def test_a_runaway_the_pose_keeps_pinching_is_carried_not_redressed_again_and_ag
     onto that pose at every firing, it ran away again on the next frames (29 firings in 3 s, 146 mm deep);
     now a garment whose re-dress is not clean, or that runs away again within ``REFIRE_S``, is carried
     with the body from its last clean frame. The guard fires at most twice between 1 and 2 s; the carried
-    frames have no free point inside a volume and no spring near a runaway; the frame a re-dress comes out
-    clean and the simulated frame after it meet (a)-(c). Without the contact planes (``collision.contact_planes``):
-    with them the skirt takes another path into the same thigh-against-torso pinch (a pair overlapping at
-    rest, which they leave alone), the guard fires at 1.00 s instead of 1.22 s, and the carry from the last
-    clean frame before it, each point rigid on one volume, stretches a spring to 12.2 rest lengths at 1.43 s
-    (9.2 at most on this path): the carry's limit, not the planes' (README, "The solver's guard")."""
+    frames have no free point inside a volume and no spring beyond ``RUNAWAY_STRETCH``: skinned from its
+    last clean frame (1.10 s), rigid on one volume per point, the skirt reached 10.4 rest lengths at 1.50 s
+    (12.2 on another path), which the guard would have re-fitted, so the carry puts such a garment where
+    the re-fit would (``GarmentSolver.carry``); the frame a re-dress comes out clean and the simulated
+    frame after it meet (a)-(c)."""
     from garment_sim_ros.cloth.solver import GarmentSolver
     from garment_sim_ros.dressing import make_character
     from garment_sim_ros.params import preset
 
     source = bvh_source(str(DATA / "cc_cmu_05_06_dance_cartwheel_pirouette.bvh"), loop=False)
     character = make_character(source.rest_pose, source.joint_map, ["short_skirt"],
-                               preset("si").replace(contact_planes=0), 1.0, motion=source.fit_poses())
+                               preset("si"), 1.0, motion=source.fit_poses())
     character.dress(source.pose(0.0), 0.0, source.motion(0.0))
     reports = []
     for k in range(1, 121):
@@ -419,7 +418,7 @@ def test_a_runaway_the_pose_keeps_pinching_is_carried_not_redressed_again_and_ag
     assert carried, "the cartwheel's pose did not allow a clean re-dress at once: the garment is carried"
     for report in carried:
         assert report.max_depth_m <= 1e-3
-        assert report.structural_stretch_max < GarmentSolver.RUNAWAY_STRETCH
+        assert max(report.structural_stretch_max, report.shear_stretch_max) <= GarmentSolver.RUNAWAY_STRETCH
     clean = [(a, b) for (_, before), (_, a), (_, b) in zip(reports, reports[1:], reports[2:])
              if before.carried and not a.carried]
     assert clean, "a re-dress came out clean before 2 s"
