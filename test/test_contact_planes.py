@@ -1,7 +1,8 @@
-"""Contact planes (``collision.contact_planes``): body volumes disjoint at rest that overlap in motion meet on
-a plane, each keeping its side, and cloth squeezed between them rests there, outside both; the plane keeps
-its clearance from the bones; pairs that overlap at rest (joints) get none; on a real clip (a hand on the
-hip) the cloth between the forearm and the hip ends with no bone through it."""
+"""Contact planes (``collision.contact_planes``): body volumes disjoint at rest (or round bones that share no
+joint) that overlap in motion meet on a plane, each keeping its side, and cloth squeezed between them rests
+there, outside both; the plane keeps its clearance from the bones; pairs that overlap at rest round a joint
+get none; on real clips (a hand on the hip, the cartwheel's thigh against the belly) the cloth between
+them ends with no bone through it, or no runaway."""
 
 from __future__ import annotations
 
@@ -122,6 +123,39 @@ def test_pairs_overlapping_at_rest_or_on_one_frame_get_no_plane():
                           (np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), np.tile(IDENTITY, (2, 1))))
     assert len(contact_planes.pressable_pairs(one_frame)) == 0  # rigidly together: they never meet anew
     assert len(contact_planes.pressable_pairs(VolumeSet((SPHERE_A, SPHERE_B)))) == 0  # rest pose unknown
+
+
+def test_volumes_overlapping_at_rest_round_bones_that_share_no_joint_are_pressed():
+    """Two limbs side by side, bones 15 cm apart, overlapping 5 cm where they were fitted (the torso and a
+    thigh at the hip crease): flesh, not a joint, so they meet on a plane and a point between them rests on
+    it outside both. The same two end to end, bones meeting at a joint, overlap by design and get none."""
+    side_by_side = _pressed_pair(_bone_capsule("a", 0.1), _bone_capsule("b", 0.1), 0.15, rest_apart=False)
+    assert len(contact_planes.pressable_pairs(side_by_side.volumes)) == 1
+    assert side_by_side.pressed_depth == pytest.approx(0.05)
+    x = _handled(side_by_side, (0.075, 0.0, 0.0), (0.075, 0.0, 0.0))
+    assert side_by_side.penetration_depths(x[None])[0] == 0.0
+    end_to_end = VolumeSet((_bone_capsule("a", 0.1), _bone_capsule("b", 0.1)),
+                           (np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.4]]), np.tile(IDENTITY, (2, 1))))
+    assert len(contact_planes.pressable_pairs(end_to_end)) == 0
+
+
+def test_the_cartwheels_thigh_against_the_belly_is_pressed_and_the_guard_stays_quiet():
+    """Issue 11 (e): the CC cartwheel, 0 to 1.4 s at 60 fps, in the short skirt. From 1.0 s the right thigh is
+    raised ~160 deg against the belly, deep in the torso's volume, the skirt's front between them. The torso
+    and a thigh overlap at rest (at the hip crease) and got no plane: the collision handling lengthened a
+    spring at the front substep after substep (2.1 to 8.6 rest lengths in the frame at 1.00 s), the guard
+    fired at 1.00 s and 1.22 s and the skirt was carried. Their bones share no joint, so now they meet on a
+    plane (164 mm pressed at 1.22 s): no firing, the longest spring 7.32 rest lengths (the bound: 8)."""
+    source = bvh_source(str(DATA / "cc_cmu_05_06_dance_cartwheel_pirouette.bvh"), loop=False)
+    character = make_character(source.rest_pose, source.joint_map, ["short_skirt"], preset("si"),
+                               motion=source.fit_poses())
+    names = [v.name for v in character.solvers[0].volumes.volumes]
+    pairs = {(names[a], names[b]) for a, b in contact_planes.pressable_pairs(character.solvers[0].volumes)}
+    assert ("torso", "right_upper_leg") in pairs and ("pelvis", "right_upper_leg") not in pairs
+    reports = [r[0] for _, _, r in simulate_frames(source, character, np.arange(85) / 60.0) if r is not None]
+    assert not any(r.recovery or r.carried for r in reports)
+    assert max(r.structural_stretch_max for r in reports) < 8.0
+    assert max(r.pressed_depth_m for r in reports) > 0.1
 
 
 def test_switched_off_the_volumes_overlap_as_fitted():

@@ -249,9 +249,20 @@ class GarmentSolver:
         at rest: no simulation (``DressedCharacter`` carries a garment it cannot dress cleanly this way).
         The frame's report says ``carried``, with the stretch measured."""
         poses = self._local_volume_poses(root_position, root_yaw, frame_positions, frame_rotations)
+        targets = self._attachment_targets(root_position, root_yaw, frame_positions, frame_rotations)
+        report = self._put_at(binding.positions(*poses), targets, poses, time_s)
+        if report.max_stretch > self.RUNAWAY_STRETCH:
+            # skinned on a pose far from the one it was bound on (the cartwheel's thigh at 160 deg: 12.2 rest
+            # lengths), it is what the guard would re-fit: carried from the re-fit instead, so never beyond it
+            report = self._put_at(self._refit_positions(targets), targets, poses, time_s)
+        return report
+
+    def _put_at(self, positions, targets, poses, time_s: float) -> FrameReport:
+        """``carry``'s garment put at ``positions`` (N, 3) m, its attached points at ``targets``, on the volume
+        ``poses`` (root frame), at rest; its report (``carried``, the stretch measured)."""
         x, v = self.state.positions, self.state.velocities
-        x[...] = binding.positions(*poses)
-        x[self.model.attached] = self._attachment_targets(root_position, root_yaw, frame_positions, frame_rotations)
+        x[...] = positions
+        x[self.model.attached] = targets
         v[...] = 0.0
         # Points skinned to different volumes part where the limbs turn against the trunk, and a point skinned
         # to one volume can end inside another (a thigh raised into the belly): a few passes of the length
@@ -436,6 +447,14 @@ class GarmentSolver:
     # (soft springs without length correction reach about 3 under strong root accelerations).
     RUNAWAY_STRETCH = 10.0
 
+    def _refit_positions(self, targets: np.ndarray) -> np.ndarray:
+        """(N, 3) m: the rest shape moved with its attached points' mean to their ``targets`` (A, 3) m, those
+        pinned there (the guard's re-fit)."""
+        attached, rest = self.model.attached, self.model.rest_positions
+        x = rest + (targets.mean(axis=0) - rest[attached].mean(axis=0) if len(attached) else 0.0)
+        x[attached] = targets
+        return x
+
     def _guard(self, report: FrameReport, last_good: ClothState, frame: FrameInput) -> None:
         """Never keep a non-finite or runaway garment: non-finite values restore the last good state
         (at rest); a spring beyond ``RUNAWAY_STRETCH`` times its rest length re-fits the garment (its
@@ -445,12 +464,9 @@ class GarmentSolver:
         if np.isfinite(x).all() and np.isfinite(v).all():
             if report.max_stretch <= self.RUNAWAY_STRETCH:
                 return
-            attached = self.model.attached
             targets = self._attachment_targets(frame.root_position1, frame.root_yaw1,
                                                frame.frame_positions1, frame.frame_rotations1)
-            rest = self.model.rest_positions  # moved with its attached points' mean, then those pinned
-            x[...] = rest + (targets.mean(axis=0) - rest[attached].mean(axis=0) if len(attached) else 0.0)
-            x[attached] = targets
+            x[...] = self._refit_positions(targets)
             report.recovery = "refitted"
         if not np.isfinite(x).all():  # the step, or the new pose the re-fit used, was not finite
             self.state = last_good  # a copy of the whole garment state (``ClothState``), contacts included

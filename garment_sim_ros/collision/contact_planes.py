@@ -10,9 +10,14 @@ and a cloth point squeezed between them rests on it, outside both (``geometry.st
 short of the plane, ``gap`` twice the collision epsilon: a point put epsilon outside one face (as the point
 handling does) is then on the plane, not epsilon deep into the other volume.
 
-Which pairs: those disjoint in the pose the body was fitted on (``VolumeSet.rest_poses``, the canonical
-standing pose) and on different skeleton frames. Pairs overlapping at rest overlap by design at a joint
-and are left as they are; pairs disjoint at rest only overlap when pressed together.
+Which pairs: those on different skeleton frames and, in the pose the body was fitted on
+(``VolumeSet.rest_poses``, the canonical standing pose), disjoint, or overlapping round bones that share no
+joint (their segments more than ``JOINT_GAP`` apart). Pairs overlapping at rest round one joint (a thigh and
+its shin, the pelvis and a thigh) overlap by design and are left as they are; pairs disjoint at rest only
+overlap when pressed together. The torso and a thigh overlap at rest too (51 mm on the CC rig, at the hip
+crease, inside the pelvis' volume) but share no joint: a thigh raised ~160 deg against the belly (the CC
+cartwheel) lies deep in the torso with the skirt's front between them, and only a plane gives that cloth a
+place; at rest their plane cuts the two where the pelvis covers them.
 
 Where (``press``), per pair (a, b) overlapping now, at the substep's end poses: along the line joining
 the nearest points c_a, c_b of the two volumes' axes (their local z segments), the volumes reach e_a from
@@ -45,6 +50,7 @@ from .volumes import CAPSULE, ELLIPSOID, SPHERE, VolumeSet
 
 _BISECTIONS = 40  # a capsule's reach along a ray, by bisection: 2^-40 of its length
 _TINY = 1e-9  # m: axes closer than this have no direction between them
+JOINT_GAP = 0.01  # m: two bones closer than this at rest share a joint (a rig's bones meet at it exactly)
 
 
 @kernel
@@ -193,7 +199,8 @@ def press(arrays, pairs, clearance, gap):
 
 def pressable_pairs(volumes: VolumeSet) -> np.ndarray:
     """(K, 2) int64 volume index pairs (a < b) that may be pressed together: on different skeleton frames
-    and disjoint in ``volumes.rest_poses``; none without rest poses."""
+    and, in ``volumes.rest_poses``, disjoint or overlapping round bones that share no joint (module docstring);
+    none without rest poses."""
     if volumes.rest_poses is None:
         return np.zeros((0, 2), dtype=np.int64)
     positions = np.ascontiguousarray(volumes.rest_poses[0], dtype=np.float64)
@@ -201,7 +208,23 @@ def pressable_pairs(volumes: VolumeSet) -> np.ndarray:
     kinds = np.ascontiguousarray(volumes.kinds, dtype=np.int64)
     radii = np.ascontiguousarray(volumes.radii, dtype=np.float64)
     cuts = np.ascontiguousarray(volumes.cuts, dtype=np.float64)
-    pairs = [(a, b) for a in range(len(volumes)) for b in range(a + 1, len(volumes))
-             if volumes.frame_index[a] != volumes.frame_index[b]
-             and not _overlap(kinds, radii, cuts, positions, rotations, a, b)[0] > 0.0]
+    pairs = []
+    for a in range(len(volumes)):
+        for b in range(a + 1, len(volumes)):
+            if volumes.frame_index[a] == volumes.frame_index[b]:
+                continue
+            overlap = _overlap(kinds, radii, cuts, positions, rotations, a, b)[0]
+            if not overlap > 0.0 or (overlap < math.inf and _bones_apart(volumes.bones, positions, rotations, a, b)):
+                pairs.append((a, b))
     return np.array(pairs, dtype=np.int64).reshape(-1, 2)
+
+
+def _bones_apart(bones: np.ndarray, positions: np.ndarray, rotations: np.ndarray, a: int, b: int) -> bool:
+    """Whether volumes a and b both have a bone (``VolumeSet.bones``) and the two share no joint: their
+    segments more than ``JOINT_GAP`` apart in the given poses ((V, 3) m, (V, 3, 3))."""
+    if np.isnan(bones[a, 0]) or np.isnan(bones[b, 0]):
+        return False
+    pa, qa = (np.array(to_world(positions, rotations, a, 0.0, 0.0, h)) for h in bones[a])
+    pb, qb = (np.array(to_world(positions, rotations, b, 0.0, 0.0, h)) for h in bones[b])
+    s, t = _nearest_on_segments(*pa, *(qa - pa), *pb, *(qb - pb))
+    return float(np.linalg.norm(pa + s * (qa - pa) - pb - t * (qb - pb))) > JOINT_GAP
