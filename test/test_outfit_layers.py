@@ -232,7 +232,7 @@ def test_evaluate_takes_outfits_joined_by_plus():
 # 60 fps (without the layers: 60, 60 and 28 of 60). The bound is the measurement, not zero: a long skirt's
 # 10-18 cm edges can straddle a trouser leg, and a point the layers would push into a volume stays put.
 # The last column: the outfit meets every target of the real-motion issue, stretch (d) included. The long
-# skirt over the trousers: 6 frames with its walking vent (README, "What the garments do"), 1 before it.
+# skirt over the trousers: 6 frames with its walking vent (docs/real_motion.md, the walking vent), 1 before it.
 OUTFITS = [("xia_strutting_01_000", "pants+long_skirt", 6, False),
            ("xia_strutting_01_000", "pants+one_piece", 0, True),
            ("xia_strutting_01_000", "short_skirt+cape", 0, False)]

@@ -3,7 +3,7 @@
 targets (``quality.TARGETS``). The full sweep (every clip, garment, 1-3x, 60 and 30 fps) is ``make evaluate``.
 
 Asked here: (b) no limb bone through the cloth, (c) no trouser leg off its leg, (a) depth, (e) no guard
-firing. Stretch (d) is not met on real motion yet (README, "Staying on real motion") and not asserted.
+firing. Stretch (d) is not met on real motion yet (README, "Real motion: measured quality") and not asserted.
 """
 
 from __future__ import annotations
