@@ -87,6 +87,27 @@ def test_a_point_squeezed_between_pressed_spheres_rests_on_the_plane_outside_bot
     assert _uncut_depth(0.1, [0, 0, 0], x) > 0.015 and _uncut_depth(0.06, [0.13, 0, 0], x) > 0.0095  # flesh gave way
 
 
+@pytest.mark.parametrize("planes", [1, 0])
+def test_volumes_closer_than_the_cloth_needs_meet_on_a_plane_too(planes):
+    """Surfaces half a collision epsilon apart, not overlapping: put epsilon out of one, a point is inside
+    the other, and the handling moves it back and forth (cmu_131 at 0.77 s: a forearm 3.3 mm off the hip, a
+    skirt point 1.8 mm deep). With the planes the gap gets one too, each face epsilon short of it, and the
+    point ends between the faces, outside both; nothing is counted as pressed, as no volume overlapped."""
+    collider = _pressed_pair(SPHERE_A, SPHERE_B, 0.16 + 0.5 * EPS)
+    if not planes:
+        collider.set_params(DEFAULT_PARAMS.replace(contact_planes=0))
+        collider.begin_frame(*([np.array([[0.0, 0.0, 0.0], [0.16 + 0.5 * EPS, 0.0, 0.0]]),
+                                np.tile(IDENTITY, (2, 1))] * 2))
+    assert collider.pressed_depth == 0.0
+    x = _handled(collider, (0.098, 0.002, 0.0), (0.098, 0.002, 0.0))  # 2 mm into a, facing b
+    depth = collider.penetration_depths(x[None])[0]
+    if planes:
+        plane = (0.16 + 0.5 * EPS) * 0.1 / 0.16
+        assert depth == 0.0 and plane - EPS - 1e-9 <= x[0] <= plane + EPS + 1e-9
+    else:
+        assert depth > 0.25 * EPS  # the failure: squeezed into one or the other
+
+
 def _bone_capsule(name, radius):
     return Volume(name, CAPSULE, f"f{name}", (radius, radius, 0.2), bone=(-0.2, 0.2))
 

@@ -19,9 +19,11 @@ crease, inside the pelvis' volume) but share no joint: a thigh raised ~160 deg a
 cartwheel) lies deep in the torso with the skirt's front between them, and only a plane gives that cloth a
 place; at rest their plane cuts the two where the pelvis covers them.
 
-Where (``press``), per pair (a, b) overlapping now, at the substep's end poses: along the line joining
-the nearest points c_a, c_b of the two volumes' axes (their local z segments), the volumes reach e_a from
-c_a and e_b from c_b (their surfaces), and overlap by o = e_a + e_b - |c_b - c_a| > 0. The plane is square
+Where (``press``), per pair (a, b) overlapping now, or closer than ``gap`` (a point put epsilon out of one
+would be inside the other, and the handling would pass it back and forth: a forearm 3.3 mm off the hip, a
+skirt point between them 1.8 mm deep), at the substep's end poses: along the line joining the nearest
+points c_a, c_b of the two volumes' axes (their local z segments), the volumes reach e_a from c_a and e_b
+from c_b (their surfaces), and overlap by o = e_a + e_b - |c_b - c_a| > -gap. The plane is square
 to that line and divides the axes' distance in proportion to the reaches (the thicker part gives way more,
 each by its share of o), then is moved, if need be, to keep ``clearance`` from either volume's bone
 segment (the whole segment; a volume without a bone: its axis point c_a): a limb's bone stays on its own
@@ -165,9 +167,9 @@ def _add_plane(planes, pos, rot, v, nx, ny, nz, cx, cy, cz):
 
 @kernel
 def press(arrays, pairs, clearance, gap):
-    """Contact planes of the ``pairs`` (K, 2) that overlap at the substep's end poses (``pos1``, ``rot1``),
-    written into ``planes`` (see the module docstring); ``clearance`` m from the bones, the two faces ``gap``
-    m apart. Returns the deepest overlap pressed away, m (0: none)."""
+    """Contact planes of the ``pairs`` (K, 2) that overlap, or are closer than ``gap``, at the substep's end
+    poses (``pos1``, ``rot1``), written into ``planes`` (see the module docstring); ``clearance`` m from the
+    bones, the two faces ``gap`` m apart. Returns the deepest overlap pressed away, m (0: none)."""
     vol = VolumeArrays(*arrays)  # a plain tuple from Python (see ``collision.kernels``)
     kinds, radii, cuts, bones, bounding_radii = vol.kinds, vol.radii, vol.cuts, vol.bones, vol.bounding_radii
     planes, pos, rot = vol.planes, vol.pos1, vol.rot1
@@ -177,11 +179,11 @@ def press(arrays, pairs, clearance, gap):
     deepest = 0.0
     for p in range(pairs.shape[0]):
         a, b = pairs[p, 0], pairs[p, 1]
-        reach = bounding_radii[a] + bounding_radii[b]
+        reach = bounding_radii[a] + bounding_radii[b] + gap
         if (pos[a, 0] - pos[b, 0]) ** 2 + (pos[a, 1] - pos[b, 1]) ** 2 + (pos[a, 2] - pos[b, 2]) ** 2 > reach * reach:
             continue
         overlap, za, zb, ux, uy, uz, distance, reach_a, reach_b = _overlap(kinds, radii, cuts, pos, rot, a, b)
-        if not 0.0 < overlap < math.inf:  # apart, or axes that meet: no side to press to
+        if not -gap < overlap < math.inf:  # apart by more than the cloth needs, or axes that meet: no side
             continue
         deepest = max(deepest, overlap)
         cx, cy, cz = to_world(pos, rot, a, 0.0, 0.0, za)
