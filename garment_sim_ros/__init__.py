@@ -4,4 +4,8 @@ The simulation core (``cloth``, ``collision``, ``body``) imports no ROS module; 
 holds the thin node adapters. Units are SI, frames follow REP-103 (x forward, y left, z up).
 """
 
+from .kernel_cache import use_source_keyed_cache
+
 __version__ = "0.1.0"
+
+use_source_keyed_cache()  # before any kernel module is imported (``kernel_cache``)
