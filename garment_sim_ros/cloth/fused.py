@@ -279,5 +279,5 @@ def _parallel_chain():
 run_substeps_parallel = _parallel_chain()
 # The twins have no loop of their own to spread (their threads are the drivers'): numba's note saying so at
 # their compilation is expected, not a lost optimisation.
-warnings.filterwarnings("ignore", r"(?s)The keyword argument 'parallel=True' was specified.*cloth[/\\]fused\.py",
+warnings.filterwarnings("ignore", r"(?s)\s*The keyword argument 'parallel=True' was specified.*cloth[/\\]fused\.py",
                         NumbaPerformanceWarning)
