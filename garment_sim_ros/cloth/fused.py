@@ -4,7 +4,7 @@ The reference path (``GarmentSolver.advance``'s loop) makes 15 (memo preset) to 
 limiting on) kernel calls a substep from Python, each paying numba's dispatch (typing its arguments, under
 1 us) and the solver's own checks and bookkeeping: 16-20 % of the one-piece's step
 (docs/benchmarks.md, "The fused frame"). Here the same kernels
-(``cloth.kernels``, ``collision.kernels``, ``collision.crossing``, ``collision.broad_phase``,
+(``cloth.kernels``, ``collision.kernels``, ``collision.crossing``,
 ``motion_constraints.limit_distance``) are called in the same order with the same arguments from one
 numba function, so the garment comes out the same, bit for bit (``test/test_fused.py``), with no Python
 and no allocation between substeps. What depends on the frame's clock only (the frame forces, the attached
@@ -32,16 +32,14 @@ from numba.core import cgutils
 from numba.core.errors import NumbaPerformanceWarning
 from numba.extending import intrinsic
 
-from ..collision import broad_phase, contact_planes, crossing
+from ..collision import crossing
 from ..collision import kernels as collision_kernels
 from ..collision.collider import AXIS_PASSES
 from ..collision.kernels import parallel_twin
-from ..collision.volume_arrays import VolumeArrays
 from . import kernels
 from .motion_constraints import limit_distance
 
 _NO_POINTS = np.zeros((0, 3))
-_NO_PAIRS = np.zeros((0, 2), dtype=np.int64)  # contact planes off
 INTEGRATION, CORRECTION, COLLISION, CALL = range(4)  # ``run_substeps``' tick counters
 # the collision drivers the serial chain below calls; the parallel chain (``_parallel_chain``) their twins
 _handle_all, _handle_contacts = collision_kernels.handle_all, collision_kernels.handle_contacts
@@ -102,7 +100,7 @@ def advance_substeps(solver, frame, count: int, h: float, v0, a0, yaw_rate: floa
                 1.0 + params.limit_ratio + params.strain_limit_tolerance, float(solver.STRAIN_LIMIT_UNDONE))
     contact = (collider._eps, collider._friction, collider._c_time, collider._switch_ratio, collider._mode,
                collider._pinch_depth, collider._edge_pinch_depth)
-    pressing = collider._pressable if collider._press else _NO_PAIRS
+    pressing = collider.pressing
     press = (collider._clearance, 2.0 * collider._eps)
     ticks = np.zeros(4, dtype=np.int64)
     tic = time.perf_counter()
@@ -140,7 +138,6 @@ def run_substeps(x, v, contacts, garment, scratch, uniform, frame_velocity, omeg
     (h, yaw_acc, air_damping, rotation_scale, iterations, correct_count, limit_ratio, tethers, tether_scale,
      constrained, max_distance, strain_iterations) = settings[:12]
     eps, friction, switch_ratio, mode = contact[0], contact[1], contact[3], contact[4]
-    vol = VolumeArrays(*arrays)
     n_static = 0
     n_dynamic = 0
     pressed = 0.0
@@ -154,12 +151,9 @@ def run_substeps(x, v, contacts, garment, scratch, uniform, frame_velocity, omeg
         kernels.integrate(x, v, forces, inv_mass, h, x_start)
         kernels.set_attached(x, attached, targets0, targets1, f1)
         tic = _cycles()
-        # the collider's begin_substep: the volumes' poses at the substep's ends
-        broad_phase.interpolate_poses(frame_pos[0], frame_quat[0], frame_pos[1], frame_quat[1], f0, vol.pos0, vol.rot0)
-        broad_phase.interpolate_poses(frame_pos[0], frame_quat[0], frame_pos[1], frame_quat[1], f1, vol.pos1, vol.rot1)
-        broad_phase.substep_motion(vol.pos0, vol.rot0, vol.pos1, vol.rot1, vol.displacement, vol.chord)
-        if pressing.shape[0] > 0:  # the contact planes of the pressed pairs (``pressing`` (P, 2)) at its end
-            pressed = max(pressed, contact_planes.press(arrays, pressing, press[0], press[1]))
+        # the collider's begin_substep: the volumes' poses at the substep's ends, the planes of ``pressing``
+        pressed = max(pressed, collision_kernels.substep_poses(arrays, frame_pos, frame_quat, f0, f1, pressing,
+                                                               press[0], press[1]))
         tac = _cycles()
         ticks[COLLISION] += tac - tic
         for iteration in range(max(1, iterations)):

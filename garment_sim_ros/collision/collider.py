@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..params import DEFAULT_PARAMS, SolverParams
-from . import broad_phase, contact_planes, crossing, kernels
+from . import contact_planes, crossing, kernels
 from .response import MODE_ADAPTIVE, MODE_DYNAMIC, MODE_STATIC
 from .volume_arrays import VolumeArrays, no_planes
 from .volumes import VolumeSet
@@ -28,6 +28,7 @@ PARALLEL_MIN_POINTS = 1500
 # handle_axes: passes over the triangles at most; moving a crossed triangle off a bone can cross a neighbour
 AXIS_PASSES = 16
 _MODES = {"adaptive": MODE_ADAPTIVE, "static": MODE_STATIC, "dynamic": MODE_DYNAMIC}
+_NO_PAIRS = np.zeros((0, 2), dtype=np.int64)  # contact planes off
 
 
 class Collider:
@@ -116,15 +117,15 @@ class Collider:
             raise RuntimeError("Collider.begin_substep: call begin_frame first")
         if not 0.0 <= f0 < f1 <= 1.0:
             raise ValueError(f"Collider.begin_substep: need 0 <= f0 < f1 <= 1, got f0={f0}, f1={f1}")
-        a_pos, b_pos = self._frame_pos
-        a_quat, b_quat = self._frame_quat
-        vol = self.arrays
-        broad_phase.interpolate_poses(a_pos, a_quat, b_pos, b_quat, float(f0), vol.pos0, vol.rot0)
-        broad_phase.interpolate_poses(a_pos, a_quat, b_pos, b_quat, float(f1), vol.pos1, vol.rot1)
-        broad_phase.substep_motion(vol.pos0, vol.rot0, vol.pos1, vol.rot1, vol.displacement, vol.chord)
-        if self._press:  # the pressed volumes' planes at the substep's end, carried over it in their local frames
-            deepest = contact_planes.press(self._packed, self._pressable, self._clearance, 2.0 * self._eps)
-            self.pressed_depth = max(self.pressed_depth, deepest)
+        # the pressed volumes' planes at the substep's end, carried over it in their local frames
+        deepest = kernels.substep_poses(self._packed, self._frame_pos, self._frame_quat, float(f0), float(f1),
+                                        self.pressing, self._clearance, 2.0 * self._eps)
+        self.pressed_depth = max(self.pressed_depth, deepest)
+
+    @property
+    def pressing(self) -> np.ndarray:
+        """(P, 2) the volume pairs pressed together where they meet (``contact_planes``); none when off."""
+        return self._pressable if self._press else _NO_PAIRS
 
     # ------------------------------------------------------------------ handling
     # Each public call checks its arguments, then runs its kernel (``_points``, ``_contacts``, ``_edges``,

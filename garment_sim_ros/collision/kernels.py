@@ -26,11 +26,14 @@ from numba import njit, prange
 
 from .broad_phase import (
     broad_phase_rejects,
+    interpolate_poses,
     out_of_reach,
     outside_bounding_sphere,
     reach_radii,
     segment_misses_box,
+    substep_motion,
 )
+from .contact_planes import press
 from .geometry import (
     TINY,
     deepest_on_segment,
@@ -64,6 +67,23 @@ def parallel_twin(function, namespace=None):
     twin.__qualname__ = function.__qualname__ + "_parallel"
     twin.__doc__ = function.__doc__
     return njit(cache=True, parallel=True)(twin)
+
+
+# ----------------------------------------------------------------------------- per substep
+@kernel
+def substep_poses(arrays, frame_pos, frame_quat, f0, f1, pressing, clearance, gap):
+    """The volumes' poses at frame fractions ``f0`` and ``f1`` (the substep's ends), interpolated between the
+    frame's (``frame_pos`` (2, V, 3) m, ``frame_quat`` (2, V, 4) xyzw), their motion over the substep, and the
+    contact planes of the ``pressing`` pairs (P, 2) at its end (``contact_planes.press``; none: the planes are
+    left as they are). ``Collider.begin_substep`` and the fused frame both call this. Returns the deepest
+    overlap pressed, m."""
+    vol = VolumeArrays(*arrays)
+    interpolate_poses(frame_pos[0], frame_quat[0], frame_pos[1], frame_quat[1], f0, vol.pos0, vol.rot0)
+    interpolate_poses(frame_pos[0], frame_quat[0], frame_pos[1], frame_quat[1], f1, vol.pos1, vol.rot1)
+    substep_motion(vol.pos0, vol.rot0, vol.pos1, vol.rot1, vol.displacement, vol.chord)
+    if pressing.shape[0] == 0:
+        return 0.0
+    return press(arrays, pressing, clearance, gap)
 
 
 # ----------------------------------------------------------------------------- drivers over points
