@@ -142,8 +142,9 @@ PARAMETERS: tuple[Param, ...] = (
           "opt-in: an edge a limb cuts stays cut when moving it out would put an end deeper than this into "
           "another volume (a thigh against the belly); 0: off, edges always move out"),
     Param("contact_planes", 1, "1", 0, 1,
-          "1: body volumes disjoint in the canonical pose that overlap in motion (a forearm on the hip) meet on "
-          "a contact plane, the cloth between them on it (pressed flesh, ``collision.contact_planes``); 0: off"),
+          "1: body volumes disjoint in the canonical pose (or round bones that share no joint) that overlap in "
+          "motion, or come closer than the cloth needs (a forearm on the hip), meet on a contact plane, the "
+          "cloth between them on it (pressed flesh, ``collision.contact_planes``); 0: off"),
     Param("press_clearance", 0.015, "m", 0.0, 0.1,
           "a contact plane keeps at least this distance from either pressed volume's bone (room for the cloth)"),
     Param("collision_mode", "adaptive", "", None, None,
