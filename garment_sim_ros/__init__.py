@@ -5,7 +5,9 @@ holds the thin node adapters. Units are SI, frames follow REP-103 (x forward, y 
 """
 
 from .kernel_cache import use_source_keyed_cache
+from .thread_waiting import prefer_passive_waiting
 
 __version__ = "0.1.0"
 
 use_source_keyed_cache()  # before any kernel module is imported (``kernel_cache``)
+prefer_passive_waiting()  # before numba's first parallel loop loads OpenMP (``thread_waiting``)
