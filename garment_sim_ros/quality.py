@@ -10,6 +10,10 @@ measured by:
   rings goes round none of its limb's volumes (winding number about the volume's axis);
 - (d) structural and shear stretch (length / rest length): 99th percentile and maximum;
 - (e) guard firings (``FrameReport.recovery``), counted by the callers;
+- the cloth surface's depth: the deepest triangle centre (of the triangles with no attached vertex) inside
+  a volume. Not one of the issue's targets; it shows what a picture shows: a body part bulging through a
+  triangle whose corners all lie outside (the corner where a contact plane meets a volume's curved surface,
+  long or stretched triangles round a small radius);
 - (f) in an outfit, layer crossings: a garment's edges through a triangle of one worn under it
   (``cloth.layers.count_edges_through``; ``DressedCharacter.measure`` fills it).
 
@@ -111,6 +115,14 @@ def rings_around(x, ring_vertices, ring_starts, ring_volumes, pos, rot, cuts, ar
 
 # ----------------------------------------------------------------------------- per garment
 
+def surface_depth(solver, triangles: np.ndarray) -> float:
+    """Deepest centre of the garment's ``triangles`` (T, 3) inside any volume at the last frame's end, m."""
+    if solver.collider is None or not len(triangles):
+        return 0.0
+    centres = solver.state.positions[triangles].mean(axis=1)
+    return float(np.max(solver.collider.penetration_depths(centres), initial=0.0))
+
+
 def free_point_depth(solver) -> float:
     """Deepest free (not attached) point of the garment inside any volume at the last frame's end, m.
 
@@ -181,6 +193,9 @@ class GarmentMeter:
         self._bone_frames = [(joint_map[start], joint_map[end]) for _, start, end in self.bones]
         self.tubes = LimbTubes(model, volumes)
         self._triangles = np.ascontiguousarray(model.triangles, dtype=np.int64)
+        attached = np.zeros(model.num_points, dtype=bool)
+        attached[model.attached] = True
+        self._free_triangles = self._triangles[~attached[self._triangles].any(axis=1)]
         kinds = model.spring_kinds
         self._kinds = {name: np.flatnonzero(kinds == kind) for name, kind in (("structural", STRUCTURAL),
                                                                                ("shear", SHEAR))}
@@ -220,6 +235,7 @@ class GarmentMeter:
         """Fill ``report``'s quality figures (see ``FrameReport``) for ``solver``'s garment after a
         frame: its world positions (N, 3), the ``SkeletonPose`` and the volumes' world poses."""
         report.max_depth_m = free_point_depth(solver)
+        report.surface_depth_m = surface_depth(solver, self._free_triangles)
         report.bones_through = len(self.bones_through(world_positions, pose))
         off = self.tubes.rings_off(world_positions, volume_positions, volume_rotations)
         report.legs_off = int(np.count_nonzero(off))
@@ -233,6 +249,7 @@ class GarmentMeter:
 # FrameReport quality fields as scalars (name -> field, scale): Rerun, diagnostics, command lines
 REPORT_SCALARS: tuple[tuple[str, str, float], ...] = (
     ("depth_mm", "max_depth_m", 1e3),
+    ("surface_depth_mm", "surface_depth_m", 1e3),
     ("bones_through", "bones_through", 1.0),
     ("legs_off", "legs_off", 1.0),
     ("structural_stretch_p99", "structural_stretch_p99", 1.0),

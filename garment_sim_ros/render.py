@@ -17,10 +17,12 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from .collision.contact_planes import press, pressable_pairs
+from .collision.volume_arrays import VolumeArrays
 from .collision.volumes import CAPSULE, ELLIPSOID, SPHERE, VolumeSet
 from .rerun_log import skeleton_segments, volume_poses
 from .shading import BODY_RGB, DEFAULT_LIGHT_DIR, SKELETON_RGB, shade
-from .transforms import quat_rotate
+from .transforms import quat_rotate, quat_to_matrix
 
 FLOOR_GRAY = 232
 SHADOW_GRAY = 200
@@ -251,12 +253,42 @@ def local_volume_mesh(kind: int, radii, cut=(-np.inf, np.inf), rings: int = 14, 
     return tuple(np.concatenate(p) for p in zip(*parts))
 
 
-def volume_meshes(volumes: VolumeSet, pose) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Every volume's surface in the world at ``pose``: ``(positions, normals, triangles)`` each."""
+def contact_planes_at(volumes: VolumeSet, centers: np.ndarray, rotations: np.ndarray, clearance: float,
+                      gap: float) -> np.ndarray:
+    """The contact planes (V, MAX_PLANES, 4) the solver presses ``volumes`` with at the world poses ``centers``
+    (V, 3) m, ``rotations`` (V, 4) xyzw (``collision.contact_planes.press``; ``clearance``, ``gap`` m)."""
+    arrays = VolumeArrays.at_rest(volumes)
+    arrays.pos1[...] = centers
+    arrays.rot1[...] = quat_to_matrix(np.asarray(rotations, dtype=np.float64))
+    press(tuple(arrays), pressable_pairs(volumes), float(clearance), float(gap))
+    return arrays.planes
+
+
+def flatten_beyond_planes(positions: np.ndarray, normals: np.ndarray, planes: np.ndarray) -> None:
+    """Move the local mesh vertices (N, 3) beyond any of one volume's contact planes ``planes`` (MAX_PLANES, 4)
+    onto it, their normals to its normal (in place): the volume as it collides, pressed flat where it meets
+    another."""
+    for normal_offset in planes:
+        if not np.isfinite(normal_offset[3]):
+            break
+        normal, offset = normal_offset[:3], normal_offset[3]
+        excess = positions @ normal - offset
+        beyond = excess > 0.0
+        positions[beyond] -= excess[beyond, None] * normal
+        normals[beyond] = normal
+
+
+def volume_meshes(volumes: VolumeSet, pose, press_with: tuple[float, float] | None = None
+                  ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Every volume's surface in the world at ``pose``: ``(positions, normals, triangles)`` each; with
+    ``press_with`` (clearance, gap) m, flattened on the contact planes the solver presses them with there."""
     centers, rotations = volume_poses(volumes, pose)
+    planes = None if press_with is None else contact_planes_at(volumes, centers, rotations, *press_with)
     meshes = []
     for i in range(len(volumes)):
         positions, normals, triangles = local_volume_mesh(int(volumes.kinds[i]), volumes.radii[i], volumes.cuts[i])
+        if planes is not None:
+            flatten_beyond_planes(positions, normals, planes[i])
         rotation = rotations[i]
         meshes.append((centers[i] + quat_rotate(rotation, positions), quat_rotate(rotation, normals), triangles))
     return meshes
@@ -289,7 +321,8 @@ def character_camera(pose, joint_map, view: str, width: int, height: int) -> Cam
 
 def render_character(pose, volumes: VolumeSet, joint_map, garments=(), view: str = "three-quarter", width: int = 360,
                      height: int = 540, volume_alpha: float = 1.0, skeleton: bool = False,
-                     body_inset_m: float = 0.0, light_dir=DEFAULT_LIGHT_DIR, supersample: int = 2) -> np.ndarray:
+                     body_inset_m: float = 0.0, light_dir=DEFAULT_LIGHT_DIR, supersample: int = 2,
+                     press_with: tuple[float, float] | None = None) -> np.ndarray:
     """A picture (H, W, 3) uint8 of a posed character: a floor with the body's shadow, the body
     volumes (``volume_alpha`` < 1: see-through, over the skeleton), the ``garments``
     (``(name, positions, normals, triangles, colors)``, as ``rerun_log.garment_meshes`` gives them)
@@ -299,13 +332,15 @@ def render_character(pose, volumes: VolumeSet, joint_map, garments=(), view: str
     ``body_inset_m`` draws the volumes that much inside their collision surface: the solver keeps
     garment *vertices* out of the volumes (memo §6), so a flat triangle between two vertices resting
     on a curved volume dips into it by its chord's sagitta (~2 mm for 4 cm edges on a 12 cm radius),
-    and an exact-surface body would show through there."""
+    and an exact-surface body would show through there. ``press_with`` (clearance, gap) m draws the volumes
+    pressed flat where they meet, as the solver's contact planes cut them (``volume_meshes``): the body the
+    cloth was kept out of."""
     canvas = Canvas(character_camera(pose, joint_map, view, width, height), supersample=supersample)
     pelvis = pose.positions[pose.skeleton.index(joint_map["pelvis"])]
     ground = floor_height(pose, joint_map)
     floor = np.array([[-1.5, -1.5, 0.0], [1.5, -1.5, 0.0], [1.5, 1.5, 0.0], [-1.5, 1.5, 0.0]]) + [*pelvis[:2], ground]
     canvas.mesh(floor, np.array([[0, 1, 2], [0, 2, 3]]), np.full((4, 3), FLOOR_GRAY))
-    meshes = volume_meshes(volumes, pose)
+    meshes = volume_meshes(volumes, pose, press_with)
     light = np.asarray(light_dir, float) / np.linalg.norm(light_dir)
     for positions, _, triangles in meshes:  # shadows: volumes projected along the light onto the floor
         flat = positions - np.maximum(positions[:, 2:3] - ground, 0.0) / light[2] * light

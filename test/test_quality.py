@@ -225,10 +225,28 @@ def test_the_targets_table_judges_each_letter_and_asks_less_at_fast_playback():
     assert TARGETS.judge(row(speed=3.0, max_depth_mm=5.0))["a"] is False  # under 5 mm at 3x
 
 
+def test_surface_depth_sees_a_sphere_bulging_between_cloth_points_that_are_all_outside():
+    # a 1 m square of two triangles through a 0.25 m sphere's centre: its four corners are 0.71 m out, so the
+    # point depth (a) reads 0, while each triangle's centre lies 14 mm inside (0.25 - sqrt(2)/6 m)
+    from garment_sim_ros.cloth.solver import GarmentSolver
+    from garment_sim_ros.collision.volumes import SPHERE
+    from garment_sim_ros.commands.drape import square_cloth
+    from garment_sim_ros.quality import free_point_depth, surface_depth
+
+    model = build_cloth_model(square_cloth(2))
+    solver = GarmentSolver(model, VolumeSet((Volume("ball", SPHERE, "ball", (0.25,) * 3),)), DEFAULT_PARAMS)
+    solver.reset(np.zeros(3), 0.0, np.zeros((1, 3)), np.array([IDENTITY_QUAT]), 0.0)
+    triangles = np.asarray(model.triangles, dtype=np.int64)
+    assert free_point_depth(solver) == 0.0
+    assert surface_depth(solver, triangles) == pytest.approx(0.25 - np.sqrt(2.0) / 6.0, abs=1e-9)
+    solver.state.positions[:, 2] += 0.3  # lifted clear of the sphere
+    assert surface_depth(solver, triangles) == 0.0
+
+
 # ----------------------------------------------------------------------------- garment-sim evaluate
 
 ROW_KEYS = {"clip", "garment", "speed", "fps", "frames", "bones_frames", "bones_max", "limb_tubes", "legs_off_frames",
-            "deep_frames", "deep_share", "max_depth_mm", "pressed_mm", "structural_stretch_p99",
+            "deep_frames", "deep_share", "max_depth_mm", "pressed_mm", "surface_depth_mm", "structural_stretch_p99",
             "structural_stretch_max", "shear_stretch_p99", "shear_stretch_max", "guard_firings", "carried_frames",
             "targets", "passed", "wall_s"}
 

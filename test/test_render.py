@@ -181,3 +181,39 @@ def test_canonical_view_shows_body_and_skeleton(tmp_path):
     assert cols.min() > 2 and cols.max() < 117 and rows.min() > 9 and rows.max() < 177
     dark = picture.max(axis=2) < 90  # the bones (the label is above the figure)
     assert dark[rows.min():].sum() > 20
+
+
+def test_pressed_volumes_are_drawn_flat_where_they_meet_and_no_longer_overlap():
+    # the CC walk at 1.9 s: a forearm on the hip and the thighs pass; the solver keeps the cloth out of the
+    # volumes cut by their contact planes, and the picture draws that body: each volume of a pressed pair lies
+    # outside the other as pressed, where uncut they overlap by centimetres
+    from garment_sim_ros.body.fitting import fit_body
+    from garment_sim_ros.body.sources import bvh_source
+    from garment_sim_ros.collision.contact_planes import pressable_pairs
+    from garment_sim_ros.collision.geometry import penetration_depth, to_local
+    from garment_sim_ros.render import contact_planes_at, volume_meshes
+    from garment_sim_ros.rerun_log import volume_poses
+    from garment_sim_ros.transforms import quat_to_matrix
+
+    source = bvh_source(str(Path(__file__).parent / "data" / "cc_cmu_07_01_walk.bvh"), loop=False)
+    volumes = fit_body(source.rest_pose, source.joint_map, motion=source.fit_poses()).volumes
+    pose = source.pose(1.9)
+    press_with = (0.015, 0.006)
+    centers, rotations = volume_poses(volumes, pose)
+    planes = contact_planes_at(volumes, centers, rotations, *press_with)
+    matrices = quat_to_matrix(rotations)
+    kinds, radii, cuts = volumes.kinds.astype(np.int64), volumes.radii.astype(float), volumes.cuts.astype(float)
+
+    def deepest(meshes, a, b, cut_planes):
+        local = [to_local(centers, matrices, b, *p) for p in meshes[a][0]]
+        return max(penetration_depth(kinds[b], radii, cuts, cut_planes, b, *p) for p in local)
+
+    pressed, whole = volume_meshes(volumes, pose, press_with), volume_meshes(volumes, pose)
+    uncut = np.zeros_like(planes)
+    uncut[:, :, 3] = np.inf
+    meeting = [(a, b) for a, b in pressable_pairs(volumes) if np.isfinite(planes[a, 0, 3]) and any(
+        np.isfinite(planes[b, :, 3]))]
+    overlaps = {(a, b): deepest(whole, a, b, uncut) for a, b in meeting}
+    assert max(overlaps.values()) > 0.01, overlaps  # the pose presses volumes together
+    for (a, b), overlap in overlaps.items():
+        assert deepest(pressed, a, b, planes) <= 1e-9 and deepest(pressed, b, a, planes) <= 1e-9, (a, b, overlap)

@@ -90,6 +90,9 @@ class FrameReport:
     # How well the garment stays on after the frame (``garment_sim_ros.quality``); filled by
     # ``DressedCharacter.step``, which has the pose (0 where the solver runs alone).
     max_depth_m: float = 0.0  # (a) deepest free point inside a body volume, m
+    # deepest centre of a triangle with no attached vertex inside a body volume, m: the body bulging through the
+    # cloth between points that are all outside (reported, not a target; ``quality``)
+    surface_depth_m: float = 0.0
     bones_through: int = 0  # (b) limb bone segments (thighs, shins, upper arms, forearms, spine) crossing a triangle
     legs_off: int = 0  # (c) trouser legs (limb tubes) with a ring round none of their limb's volumes; 0 without
     structural_stretch_p99: float = 0.0  # (d) 99th percentile of structural spring length / rest length

@@ -127,6 +127,11 @@ class Collider:
         """(P, 2) the volume pairs pressed together where they meet (``contact_planes``); none when off."""
         return self._pressable if self._press else _NO_PAIRS
 
+    @property
+    def press_with(self) -> tuple[float, float] | None:
+        """(clearance, gap) m the pressed volumes' planes keep (``contact_planes.press``); None when off."""
+        return (self._clearance, 2.0 * self._eps) if self._press else None
+
     # ------------------------------------------------------------------ handling
     # Each public call checks its arguments, then runs its kernel (``_points``, ``_contacts``, ``_edges``,
     # ``_axes``); ``resolve_substep`` checks once for its up to nine kernel calls.

@@ -109,6 +109,8 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
     (frames with a free point deeper than ``Targets.depth_tolerance_m``) and ``max_depth_mm``, depth measured
     against the volumes as contact planes press them where two meet, and ``pressed_mm``, the deepest overlap
     of two volumes so pressed away (``collision.contact_planes``; not a target: how much flesh gave way);
+    ``surface_depth_mm``, the deepest triangle centre inside a volume (``quality.surface_depth``; not a target:
+    the body bulging through the cloth between points that are outside);
     ``structural_stretch_p99`` / ``shear_stretch_p99`` (the worst frame's 99th percentile of length /
     rest length) and ``..._max`` (the longest spring); ``guard_firings`` (frames) and ``carried_frames`` (frames
     a garment was carried rigidly after a runaway, ``DressedCharacter._recover``);
@@ -138,6 +140,7 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
     crossings = np.zeros((frames, worn), dtype=np.int64)
     stretch = np.zeros((frames, worn, 4))  # structural p99, max, shear p99, max
     pressed = np.zeros((frames, worn))  # m, the deepest overlap of two volumes pressed onto a contact plane
+    surface = np.zeros((frames, worn))  # m, the deepest triangle centre inside a volume
     steps = simulate_frames(source, character, np.arange(frames + 1) / run.fps)
     for k, (_, _, reports) in enumerate(steps):
         if reports is None:  # the dressing
@@ -150,6 +153,7 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
             guard[k - 1, g], crossings[k - 1, g] = bool(report.recovery), report.layer_crossings
             carried[k - 1, g] = report.carried
             pressed[k - 1, g] = report.pressed_depth_m
+            surface[k - 1, g] = report.surface_depth_m
             stretch[k - 1, g] = (report.structural_stretch_p99, report.structural_stretch_max,
                                  report.shear_stretch_p99, report.shear_stretch_max)
 
@@ -165,6 +169,7 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
             "deep_frames": int(deep), "deep_share": float(deep / frames),
             "max_depth_mm": float(depth[:, garments].max() * 1e3),
             "pressed_mm": float(pressed[:, garments].max() * 1e3),
+            "surface_depth_mm": float(surface[:, garments].max() * 1e3),
             "structural_stretch_p99": float(worst[0]), "structural_stretch_max": float(worst[1]),
             "shear_stretch_p99": float(worst[2]), "shear_stretch_max": float(worst[3]),
             "guard_firings": int(np.count_nonzero(np.any(guard[:, garments], axis=1))),
@@ -227,14 +232,14 @@ def _verdict(row: dict) -> str:
 
 
 HEADER = (f"{'clip':<40} {'garment':<16} {'speed':>5} {'fps':>4} {'frames':>6}  {'bones frm/max':>13}  "
-          f"{'legs off':>8}  {'>1mm %':>6} {'max mm':>7} {'pressed':>7}  {'struct p99/max':>14}  "
+          f"{'legs off':>8}  {'>1mm %':>6} {'max mm':>7} {'surf mm':>7} {'pressed':>7}  {'struct p99/max':>14}  "
           f"{'shear p99/max':>13}  {'guard':>5}  {'layers frm/max':>14}  result")
 
 
 def _figures_text(row: dict) -> str:
     legs = f"{row['legs_off_frames']}" if row["limb_tubes"] else "-"
     return (f"{row['bones_frames']:>9}/{row['bones_max']:<3}  {legs:>8}  {100 * row['deep_share']:>6.1f} "
-            f"{row['max_depth_mm']:>7.1f} {row['pressed_mm']:>7.1f}  "
+            f"{row['max_depth_mm']:>7.1f} {row['surface_depth_mm']:>7.1f} {row['pressed_mm']:>7.1f}  "
             f"{row['structural_stretch_p99']:>6.2f}/{row['structural_stretch_max']:<7.2f}"
             f"  {row['shear_stretch_p99']:>5.2f}/{row['shear_stretch_max']:<7.2f}  {row['guard_firings']:>5}")
 

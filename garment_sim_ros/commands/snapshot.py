@@ -97,7 +97,8 @@ def snapshot(out: Path, outfits: list[list[str]] | None, time_s: float, view: st
         for garments in outfits:
             character, pose = dressed_at(source, garments, time_s, fps, resolution, decimate_to)
             panels.append(render_character(pose, character.body.volumes, source.joint_map, garment_meshes(character),
-                                           view=view, width=width, height=height, body_inset_m=BODY_INSET_M))
+                                           view=view, width=width, height=height, body_inset_m=BODY_INSET_M,
+                                           press_with=character.solvers[0].collider.press_with))
             points = sum(s.model.num_points for s in character.solvers)
             labels.append(f"{' + '.join(character.garment_names)} ({points} points)")
         labels[0] = f"{clip}, t = {time_s:g} s: {labels[0]}"
