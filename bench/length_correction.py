@@ -7,9 +7,7 @@ structural or shear spring is longer than ``1 + limit_ratio + strain_limit_toler
 limiting's stop) and the median time per sweep over those sweeps, on 1 and 2 of numba's threads.
 
 - ``gauss_seidel``: ``cloth.kernels.length_correction`` in the model's order (the solver's);
-- ``gauss_seidel_runtime``: the same source compiled with numba's runtime (before df7f0e9);
 - ``coloured``: the springs reordered by colour (no two of a colour share a point), the same kernel;
-- ``coloured_runtime``: that order, the kernel compiled with numba's runtime;
 - ``coloured_prange``: the same order, each colour's springs over numba's threads (bit-equal to ``coloured``);
 - ``jacobi``: every point moved by the mean of its springs' corrections times a relaxation, a ``prange``
   over the points gathering from their springs (CSR), then one over the points applying.
@@ -137,7 +135,6 @@ def main() -> int:
     params = DEFAULT_PARAMS
     limit = params.limit_ratio
     converged = 1.0 + params.limit_ratio + params.strain_limit_tolerance
-    runtime_kernel = njit(kernels.length_correction.py_func)  # what the kernel was compiled as before
     for points in args.points:
         model = build_cloth_model(build_garment(GARMENT, resolution=resolution_for(points)))
         count = model.num_correction_springs
@@ -151,9 +148,7 @@ def main() -> int:
         x0, inv_mass = starting_state(model, np.random.default_rng(0))
         ways = {
             "gauss_seidel": lambda x: kernels.length_correction(x, inv_mass, springs, rest, count, limit),
-            "gauss_seidel_runtime": lambda x: runtime_kernel(x, inv_mass, springs, rest, count, limit),
             "coloured": lambda x: kernels.length_correction(x, inv_mass, coloured, coloured_rest, count, limit),
-            "coloured_runtime": lambda x: runtime_kernel(x, inv_mass, coloured, coloured_rest, count, limit),
             "coloured_prange": lambda x: coloured_sweep(x, inv_mass, coloured, coloured_rest, starts, limit),
             "jacobi": lambda x: jacobi_sweep(x, inv_mass, springs, rest, point_start, point_springs, limit,
                                              RELAXATION, delta),

@@ -2,10 +2,6 @@
 
 Positions and velocities are in the simulation frame: the root frame, translating with the
 pelvis and turning with its heading (memo §4, extended to rotation about z).
-
-Compiled without numba's runtime (``kernel``: nothing here allocates), as the collision kernels are. With it,
-the arrays handed to the inlined ``_spring_vector`` are reference-counted at every spring (atomic operations):
-a sweep over springs that share no point took 4-5x as long (``bench/length_correction.py``, ``coloured``).
 """
 
 from __future__ import annotations
@@ -16,10 +12,9 @@ import numpy as np
 from numba import njit
 
 from .. import quat_kernels as quat
-from ..quat_kernels import kernel
 
 
-@kernel
+@njit(cache=True)
 def accumulate_forces(x, v, mass, springs, rest, stiffness, damping, uniform_accel, omega_z, alpha_z,
                       drag_rate, frame_velocity, rotation_scale, forces):
     """Total force on every point (memo Eq. 4-2 with the root's rotation, plus Provot springs).
@@ -67,7 +62,7 @@ def accumulate_forces(x, v, mass, springs, rest, stiffness, damping, uniform_acc
         forces[b, 2] -= magnitude * uz
 
 
-@kernel
+@njit(cache=True)
 def integrate(x, v, forces, inv_mass, h, x_start):
     """Explicit step: ``x_start = x``; ``x += (v + F/m h) h`` for free points (see ``cloth.solver`` on Eq. 5-1)."""
     for i in range(x.shape[0]):
@@ -82,7 +77,7 @@ def integrate(x, v, forces, inv_mass, h, x_start):
         x[i, 2] += (v[i, 2] + forces[i, 2] * w * h) * h
 
 
-@kernel
+@njit(cache=True)
 def length_correction(x, inv_mass, springs, rest, count, limit_ratio):
     """One Provot iteration over the first ``count`` springs: shorten every spring longer than
     ``(1 + limit_ratio) * rest`` back to that length, moving both ends by their inverse masses.
@@ -111,7 +106,7 @@ def length_correction(x, inv_mass, springs, rest, count, limit_ratio):
     return worst
 
 
-@kernel
+@njit(cache=True)
 def tether_constraints(x, inv_mass, anchors, lengths, scale):
     """Long-range attachments: a free point i farther than ``scale * lengths[i]`` from its anchor
     ``anchors[i]`` (an attached point; -1: none) goes straight back towards it to that distance.
@@ -134,7 +129,7 @@ def tether_constraints(x, inv_mass, anchors, lengths, scale):
     return moved
 
 
-@kernel
+@njit(cache=True)
 def contact_weights(x, x_before, inv_mass, mobility, out):
     """Inverse masses for the strain limiting after collision handling: a point the handling moved
     (``x`` differs from ``x_before``) is in contact and takes ``mobility`` of its share; ``out`` (N,)."""
@@ -143,7 +138,7 @@ def contact_weights(x, x_before, inv_mass, mobility, out):
         out[i] = inv_mass[i] * mobility if touched else inv_mass[i]
 
 
-@kernel
+@njit(cache=True)
 def keep_where_inside(x, v, x_kept, v_kept, depth):
     """Points inside a volume (``depth`` > 0) go back to ``x_kept`` with ``v_kept``; returns how many did."""
     restored = 0
@@ -156,7 +151,7 @@ def keep_where_inside(x, v, x_kept, v_kept, depth):
     return restored
 
 
-@kernel
+@njit(cache=True)
 def velocities_from_positions(x, x_start, h, v):
     """Memo Eq. 5-2: ``v = (x_corrected - x_start) / h``."""
     inv_h = 1.0 / h
@@ -166,7 +161,7 @@ def velocities_from_positions(x, x_start, h, v):
         v[i, 2] = (x[i, 2] - x_start[i, 2]) * inv_h
 
 
-@kernel
+@njit(cache=True)
 def set_attached(x, attached, targets0, targets1, fraction):
     """Attached points to their targets, ``fraction`` of the way from ``targets0`` to ``targets1``."""
     for k in range(attached.shape[0]):
@@ -175,7 +170,7 @@ def set_attached(x, attached, targets0, targets1, fraction):
             x[i, c] = targets0[k, c] + fraction * (targets1[k, c] - targets0[k, c])
 
 
-@kernel
+@njit(cache=True)
 def spring_stretches(x, springs, rest, out):
     """Length / rest length of the first ``len(out)`` springs (S, 2) of points ``x`` (N, 3) into ``out``;
     returns the largest (0 for none). The one stretch figure of the solver, its guard and ``quality``."""
@@ -195,7 +190,7 @@ def _spring_vector(x, a, b):
     return dx, dy, dz, np.sqrt(dx * dx + dy * dy + dz * dz)
 
 
-@kernel
+@njit(cache=True)
 def vertex_normals(x, triangles, normals):
     """Area-weighted unit vertex normals."""
     normals[:] = 0.0
@@ -218,7 +213,7 @@ def vertex_normals(x, triangles, normals):
             normals[i, 2] /= length
 
 
-@kernel
+@njit(cache=True)
 def poses_in_root_frame(root_position, root_yaw, frame_positions, frame_rotations, index, offset_positions,
                         offset_rotations, out_positions, out_rotations):
     """For each k: the pose ``frame[index[k]] * offset[k]`` (world) expressed in the root frame

@@ -16,9 +16,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 from ..collision.volumes import CAPSULE, SPHERE
-from ..quat_kernels import kernel
 from ..transforms import quat_conjugate, quat_rotate
 
 
@@ -60,7 +60,7 @@ class SkinBinding:
         return volume_positions[self.volume] + quat_rotate(volume_rotations[self.volume], self.local)
 
 
-@kernel
+@njit(cache=True)
 def limit_distance(x, skinned0, skinned1, fraction, max_distance, inv_mass):
     """Pull every free point (``inv_mass`` > 0) of ``x`` (N, 3) that is farther than ``max_distance`` (m)
     from its skinned position -- ``fraction`` of the way from ``skinned0`` to ``skinned1`` -- back onto
