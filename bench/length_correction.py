@@ -61,17 +61,25 @@ def coloured_sweep(x, inv_mass, springs, rest, starts, limit_ratio):
     for c in range(starts.shape[0] - 1):
         for s in prange(starts[c], starts[c + 1]):
             a, b = springs[s, 0], springs[s, 1]
-            dx, dy, dz = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1], x[b, 2] - x[a, 2]
-            length = np.sqrt(dx * dx + dy * dy + dz * dz)
-            limit = (1.0 + limit_ratio) * rest[s]
-            worst = max(worst, length / rest[s])
-            total = inv_mass[a] + inv_mass[b]
-            if length > limit and total > 0.0:
-                scale = (length - limit) / (length * total)
-                for k, d in ((0, dx), (1, dy), (2, dz)):
-                    x[a, k] += inv_mass[a] * scale * d
-                    x[b, k] -= inv_mass[b] * scale * d
+            dx, dy, dz, ratio, scale = _excess(x, inv_mass, springs, rest, s, limit_ratio)
+            worst = max(worst, ratio)
+            for k, d in ((0, dx), (1, dy), (2, dz)):
+                x[a, k] += inv_mass[a] * scale * d
+                x[b, k] -= inv_mass[b] * scale * d
     return worst
+
+
+@njit(inline="always")
+def _excess(x, inv_mass, springs, rest, s, limit_ratio):
+    """Spring s: (b - a, its length / rest length, the share of b - a to move by per unit inverse mass: 0
+    within its limit), as ``cloth.kernels.length_correction`` computes them."""
+    a, b = springs[s, 0], springs[s, 1]
+    dx, dy, dz = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1], x[b, 2] - x[a, 2]
+    length = np.sqrt(dx * dx + dy * dy + dz * dz)
+    limit = (1.0 + limit_ratio) * rest[s]
+    total = inv_mass[a] + inv_mass[b]
+    scale = (length - limit) / (length * total) if length > limit and total > 0.0 else 0.0
+    return dx, dy, dz, length / rest[s], scale
 
 
 @njit(parallel=True)  # a prange reduction (max) needs numba's runtime
@@ -83,15 +91,11 @@ def jacobi_sweep(x, inv_mass, springs, rest, point_start, point_springs, limit_r
         sx, sy, sz, active = 0.0, 0.0, 0.0, 0
         for k in range(point_start[i], point_start[i + 1]):
             s = point_springs[k]
-            a, b = springs[s, 0], springs[s, 1]
-            dx, dy, dz = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1], x[b, 2] - x[a, 2]
-            length = np.sqrt(dx * dx + dy * dy + dz * dz)
-            limit = (1.0 + limit_ratio) * rest[s]
-            worst = max(worst, length / rest[s])
-            total = inv_mass[a] + inv_mass[b]
-            if length <= limit or total == 0.0:
+            dx, dy, dz, ratio, scale = _excess(x, inv_mass, springs, rest, s, limit_ratio)
+            worst = max(worst, ratio)
+            if scale == 0.0:
                 continue
-            scale = inv_mass[i] * (length - limit) / (length * total) * (1.0 if i == a else -1.0)
+            scale *= inv_mass[i] * (1.0 if i == springs[s, 0] else -1.0)
             sx, sy, sz, active = sx + scale * dx, sy + scale * dy, sz + scale * dz, active + 1
         w = relaxation / max(active, 1)
         delta[i, 0], delta[i, 1], delta[i, 2] = w * sx, w * sy, w * sz
