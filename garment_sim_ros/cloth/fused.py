@@ -92,7 +92,7 @@ def advance_substeps(solver, frame, count: int, h: float, v0, a0, yaw_rate: floa
                solver._triangles)
     scratch = (solver._forces, solver._x_start, solver._x_collision, solver._x_kept, solver._v_kept,
                solver._v_scratch, solver._strain_inv_mass, solver._strain_stretches, collider._depths,
-               collider._scratch, collider._corners, solver._contacts_checked)
+               collider._scratch, collider._corners)
     settings = (float(h), float(yaw_acc), float(params.air_damping), float(params.angular_inertia_scale),
                 int(params.correction_iterations), int(solver._correct_count), float(params.limit_ratio),
                 bool(params.tethers), 1.0 + float(params.tether_slack), constrained, float(params.max_distance),
@@ -164,7 +164,7 @@ def run_substeps(x, v, contacts, garment, scratch, uniform, frame_velocity, omeg
             if iteration == 0:
                 tic = _cycles()
                 n_static += _handle_contacts(arrays, x_start, x, v, inv_mass, h, eps, friction, switch_ratio, mode,
-                                              contacts, scratch[11][:0])
+                                              contacts)
                 ticks[COLLISION] += _cycles() - tic
                 tac += _cycles() - tic
         ticks[CORRECTION] += _cycles() - tac
@@ -211,8 +211,7 @@ def _resolve(arrays, xs, x, v, inv_mass, h, contacts, edges, edge_rest, triangle
     crossed = crossing.handle_axes(arrays, xs, x, v, inv_mass, h, triangles, eps, pinch_depth, AXIS_PASSES,
                                    scratch[10])
     if collision_kernels.handle_edges(arrays, xs, x, inv_mass, edges, edge_rest, edge_pinch_depth) or crossed:
-        n_static += _handle_contacts(arrays, xs, x, v, inv_mass, h, eps, friction, switch_ratio, mode, contacts,
-                                     scratch[11][:0])
+        n_static += _handle_contacts(arrays, xs, x, v, inv_mass, h, eps, friction, switch_ratio, mode, contacts)
         collision_kernels.handle_edges(arrays, xs, x, inv_mass, edges, edge_rest, edge_pinch_depth)
         s, d = _points(arrays, xs, x, v, inv_mass, h, contacts, scratch, contact)
         n_static += s
@@ -236,14 +235,12 @@ def _limit_strain(arrays, xs, x, v, inv_mass, h, contacts, springs, rest, edges,
     v_kept[:] = v
     worst_kept = kernels.spring_stretches(x, springs, rest, stretches)
     tac = _cycles()
-    checked = scratch[11]
-    checked[:] = math.nan
     n_static = 0
     for _ in range(strain_iterations):
         if kernels.length_correction(x, strain_inv_mass, springs, rest, correct_count, limit_ratio) <= converged:
             break
         n_static += _handle_contacts(arrays, xs, x, v_scratch, inv_mass, h, eps, friction, switch_ratio, mode,
-                                      contacts, checked)
+                                      contacts)
     if constrained:
         limit_distance(x, skinned0, skinned1, f1, max_distance, inv_mass)
     for i in range(x.shape[0]):

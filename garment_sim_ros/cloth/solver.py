@@ -173,7 +173,6 @@ class GarmentSolver:
         self._v_kept = np.zeros((n, 3))
         self._v_scratch = np.zeros((n, 3))
         self._strain_inv_mass = np.zeros(n)
-        self._contacts_checked = np.zeros((n, 3))  # where the limiting's contact handling found each point clear
         self._strain_stretches = np.zeros(model.num_correction_springs)
         self._correct_count = model.num_correction_springs
         # (S_c,) length / rest length of the structural and shear springs (``model.springs``' first S_c)
@@ -418,15 +417,13 @@ class GarmentSolver:
         worst_kept = kernels.spring_stretches(x, model.springs, model.rest_lengths, self._strain_stretches)
         tac = clock()
         converged = 1.0 + params.limit_ratio + params.strain_limit_tolerance
-        self._contacts_checked[...] = np.nan  # poses, start positions and contacts stay for the sweeps
         for _ in range(params.strain_limit_iterations):
             if kernels.length_correction(x, self._strain_inv_mass, model.springs, model.rest_lengths,
                                          self._correct_count, params.limit_ratio) <= converged:
                 break
             # the contacts as constraints of the same projection: what the correction pulled into a volume goes
             # back out before the next sweep (its velocity response is not wanted: ``v += dx / h`` below)
-            collider.handle_contacts(self._x_start, x, self._v_scratch, const.inv_mass, h, self.state.contacts,
-                                     self._contacts_checked)  # the points the sweep moved, and those hit last
+            collider.handle_contacts(self._x_start, x, self._v_scratch, const.inv_mass, h, self.state.contacts)
         if constraint is not None:
             limit_distance(x, *constraint, params.max_distance, const.inv_mass)
         v += (x - self._x_kept) / h

@@ -29,7 +29,6 @@ PARALLEL_MIN_POINTS = 1500
 AXIS_PASSES = 16
 _MODES = {"adaptive": MODE_ADAPTIVE, "static": MODE_STATIC, "dynamic": MODE_DYNAMIC}
 _NO_PAIRS = np.zeros((0, 2), dtype=np.int64)  # contact planes off
-_NO_POINTS = np.zeros((0, 3))  # handle_contacts without a record of the points found clear
 
 
 class Collider:
@@ -147,28 +146,23 @@ class Collider:
         self._points(x_start, x, v, inv_mass, h, contacts)
         crossed = self._axes(x_start, x, v, inv_mass, h, triangles)
         if self._edges(x_start, x, inv_mass, edges, edge_rest) or crossed:
-            self._contacts(x_start, x, v, inv_mass, h, contacts, self._mode, _NO_POINTS)
+            self._contacts(x_start, x, v, inv_mass, h, contacts, self._mode)
             self._edges(x_start, x, inv_mass, edges, edge_rest)
             self._points(x_start, x, v, inv_mass, h, contacts)
             self._axes(x_start, x, v, inv_mass, h, triangles)
 
-    def handle_contacts(self, x_start, x, v, inv_mass, h: float, contacts, checked=None) -> None:
+    def handle_contacts(self, x_start, x, v, inv_mass, h: float, contacts) -> None:
         """Handling of the cached (in-contact) pairs, ``contacts``, at the substep-end poses (memo §3 step 4).
 
         Static (``x_start`` None), or -- given the points' substep-start positions ``x_start`` -- the same adaptive
         static/dynamic handling as ``handle_all`` (without the slide), so that a point the length
         correction pulled deep into a thin limb goes back out on the side it came from. ``h`` (s), the
-        substep's length, gives the surface's velocity. ``checked`` (N, 3) m: the points already found clear
-        at the same start positions, poses and contacts (NaN where none), skipped and kept up to date (see
-        ``kernels._handle_contacts``).
+        substep's length, gives the surface's velocity.
         """
         static = x_start is None
         self._check_points(x if static else x_start, x, v, inv_mass, h, contacts)
-        if checked is not None and (checked.shape != x.shape or checked.dtype != np.float64):
-            raise ValueError(f"Collider.handle_contacts: checked must be float64 of shape {x.shape}, "
-                             f"got {checked.dtype} {checked.shape}")
         self._contacts(x if static else x_start, x, v, inv_mass, float(h), contacts,
-                       MODE_STATIC if static else self._mode, _NO_POINTS if checked is None else checked)
+                       MODE_STATIC if static else self._mode)
 
     def handle_all(self, x_start, x, v, inv_mass, h: float, contacts) -> None:
         """Every point against every volume, adaptive static/dynamic (memo §3 step 5, §6.2); ``contacts``
@@ -202,10 +196,10 @@ class Collider:
         self.static_hits += int(n_static)
         self.dynamic_hits += int(n_dynamic)
 
-    def _contacts(self, x_start, x, v, inv_mass, h: float, contacts, mode: int, checked) -> None:
+    def _contacts(self, x_start, x, v, inv_mass, h: float, contacts, mode: int) -> None:
         kernel = kernels.handle_contacts_parallel if self.parallel else kernels.handle_contacts
         self.static_hits += int(kernel(self._packed, x_start, x, v, inv_mass, h, self._eps, self._friction,
-                                       self._switch_ratio, mode, contacts, checked))
+                                       self._switch_ratio, mode, contacts))
 
     def _edges(self, x_start, x, inv_mass, edges, rest_lengths) -> int:
         return int(kernels.handle_edges(self._packed, x_start, x, inv_mass, edges, rest_lengths,

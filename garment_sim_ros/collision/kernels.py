@@ -238,7 +238,7 @@ def _contacts_point(vol, xs, x, vel, i, h, eps, friction, switch_ratio, mode, ca
     return n_moved
 
 
-def _handle_contacts(arrays, xs, x, vel, inv_mass, h, eps, friction, switch_ratio, mode, cache, checked):
+def _handle_contacts(arrays, xs, x, vel, inv_mass, h, eps, friction, switch_ratio, mode, cache):
     """Memo §3 step 4: the cached (point, volume) pairs at the end poses, during the length correction.
 
     ``mode`` as in ``handle_pair``, from the substep's start positions ``xs``. physics: the correction
@@ -246,26 +246,12 @@ def _handle_contacts(arrays, xs, x, vel, inv_mass, h, eps, friction, switch_rati
     radially from there it lands wherever it happens to be relative to the axis, and edges end up
     straddling the limb. Tested along its relative trajectory, a deep point goes back out where it
     came in. No slide here (c_time 0): the velocities are recomputed after the correction and the
-    full handling responds them. Returns the number of points moved out.
-
-    ``checked`` (N, 3) m, or (0, 3) for none: where each point was last found clear of its cached volumes
-    (NaN: not known to be). A point still there is skipped -- with the same start position, poses and
-    cache, which the caller keeps between calls, it would be found clear again -- and a point found clear
-    is recorded. Repeated calls between length-correction sweeps then handle only the points the sweep
-    moved and those hit last time (``GarmentSolver._limit_strain``)."""
+    full handling responds them. Returns the number of points moved out."""
     vol = VolumeArrays(*arrays)
     n_moved = 0
-    memo = checked.shape[0] > 0
     for i in prange(x.shape[0]):  # each point only touches its own row
-        if inv_mass[i] == 0.0:
-            continue
-        if memo and x[i, 0] == checked[i, 0] and x[i, 1] == checked[i, 1] and x[i, 2] == checked[i, 2]:
-            continue
-        hits = _contacts_point(vol, xs, x, vel, i, h, eps, friction, switch_ratio, mode, cache)
-        n_moved += hits
-        if memo:
-            for c in range(3):
-                checked[i, c] = x[i, c] if hits == 0 else math.nan
+        if inv_mass[i] != 0.0:
+            n_moved += _contacts_point(vol, xs, x, vel, i, h, eps, friction, switch_ratio, mode, cache)
     return n_moved
 
 
