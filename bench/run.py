@@ -18,7 +18,8 @@ from garment_sim_ros.bench_report import figures, table
 from garment_sim_ros.benchmarking import load_average
 
 HERE = Path(__file__).resolve().parent
-BENCHES = ("roofline", "table1", "scale", "publish", "drape", "crowd", "tf_throughput", "rerun_rate", "peers", "fused")
+BENCHES = ("roofline", "table1", "scale", "publish", "drape", "crowd", "tf_throughput", "rerun_rate", "peers", "fused",
+           "length_correction")
 
 
 def main() -> int:

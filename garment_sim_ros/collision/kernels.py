@@ -358,9 +358,13 @@ def penetration_depths(arrays, x, out):
     reference of its own, and a compiled caller dropping it would free the caller's array (``cloth.fused``)."""
     vol = VolumeArrays(*arrays)
     kinds, radii, cuts, planes, pos, rot = vol.kinds, vol.radii, vol.cuts, vol.planes, vol.pos1, vol.rot1
+    bounding_radii = vol.bounding_radii
     for i in range(x.shape[0]):
         deepest = 0.0
         for v in range(kinds.shape[0]):
+            if ((x[i, 0] - pos[v, 0]) ** 2 + (x[i, 1] - pos[v, 1]) ** 2 + (x[i, 2] - pos[v, 2]) ** 2
+                    > bounding_radii[v] ** 2):
+                continue  # outside the sphere holding the volume: depth 0 (most pairs, without a rotation)
             lx, ly, lz = to_local(pos, rot, v, x[i, 0], x[i, 1], x[i, 2])
             deepest = max(deepest, penetration_depth(kinds[v], radii, cuts, planes, v, lx, ly, lz))
         out[i] = deepest
