@@ -53,10 +53,11 @@ from .body.root import root_frame
 from .body.skeleton import SkeletonPose, forward_kinematics
 from .cloth.garments import GarmentMesh
 from .cloth.kernels import keep_where_inside
-from .cloth.layers import BONE_PASSES, REACH_M, InnerSurface, carried_like, undo_bone_crossings
+from .cloth.layers import REACH_M, InnerSurface
 from .cloth.mesh_check import GarmentMeshError
 from .cloth.model import build_cloth_model
 from .cloth.motion_constraints import SkinBinding
+from .cloth.outfit_rules import BONE_PASSES, carried_like, undo_bone_crossings
 from .cloth.solver import FrameInput, FrameReport, GarmentSolver
 from .cloth.spec import GarmentSpec, build_mesh, resolve_garment
 from .collision.collider import Collider

@@ -11,7 +11,7 @@ measured by:
 - (d) structural and shear stretch (length / rest length): 99th percentile and maximum;
 - (e) guard firings (``FrameReport.recovery``), counted by the callers;
 - (f) in an outfit, layer crossings: a garment's edges through a triangle of one worn under it
-  (``cloth.layers.count_edges_through``; ``DressedCharacter.measure`` fills it).
+  (``cloth.triangle_grid.count_edges_through``; ``DressedCharacter.measure`` fills it).
 
 ``GarmentMeter.measure`` fills a ``FrameReport``'s figures; ``DressedCharacter.step`` calls it
 after every frame. ``Targets`` is the one table of pass/fail thresholds (``garment-sim evaluate``).

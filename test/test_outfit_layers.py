@@ -11,15 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from garment_sim_ros.cloth.layers import (
-    BONE_PASSES,
-    SWEEPS,
-    InnerSurface,
-    build_grid,
-    count_edges_through,
-    separate,
-    undo_bone_crossings,
-)
+from garment_sim_ros.cloth.layers import SWEEPS, InnerSurface, separate
+from garment_sim_ros.cloth.outfit_rules import BONE_PASSES, undo_bone_crossings
+from garment_sim_ros.cloth.triangle_grid import build_grid, count_edges_through
 from garment_sim_ros.quality import segments_through_triangles
 
 DATA = Path(__file__).parent / "data"
