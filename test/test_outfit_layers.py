@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from garment_sim_ros.cloth.layers import SWEEPS, InnerSurface, separate
+from garment_sim_ros.cloth.layers import GIVE_M, SKEWER_M, SWEEPS, InnerSurface, separate
 from garment_sim_ros.cloth.outfit_rules import BONE_PASSES, undo_bone_crossings
 from garment_sim_ros.cloth.triangle_grid import build_grid, count_edges_through
 from garment_sim_ros.quality import segments_through_triangles
@@ -134,6 +134,59 @@ def test_an_edge_with_an_end_inside_a_tube_has_that_end_pushed_out():
     assert surface.edges_through(x, edges) == 0
     assert x[0] == pytest.approx([0.0, 0.0, 0.1])  # the outer end stays
     assert np.hypot(x[1, 0], x[1, 2]) > 0.07 * np.cos(np.pi / 16)
+
+
+def test_an_edge_run_through_a_whole_tube_moves_out_sideways():
+    """A skirt's edge through a whole trouser leg, in at one side and out at the other, both ends outside: the two
+    crossed triangles face away from each other (no way out along their normals); the edge goes out across the
+    tube the short way (sideways, not along its axis), the tube's radius and the thickness from its axis."""
+    radius, around = 0.07, 16
+    surface = InnerSurface(*_tube(radius, around), reach=0.05)
+    x = np.array([[-0.1, 0.013, 0.02], [0.1, 0.013, 0.02]])  # 2 cm off the axis, through both walls
+    edges = np.array([[0, 1]])
+    crossed = surface.crossings(x, edges)[0]
+    assert crossed[0] != crossed[1] and surface.normals[crossed[0]] @ surface.normals[crossed[1]] < -0.9
+    before = x.copy()
+    _separate(surface, x, edges=edges)
+    assert surface.edges_through(x, edges) == 0
+    moved = x - before
+    # across the tube and the edge (z), the near side (the edge was 2 cm above the axis): out past the top ridge
+    # (z = radius), the thickness over it; a later sweep's edge-edge push off the ridge may tilt it a little
+    assert np.all(np.abs(moved[:, :2]) < 0.2 * moved[:, 2:])
+    over_ridge = x[0, 2] + (x[1, 2] - x[0, 2]) * (0.0 - x[0, 0]) / (x[1, 0] - x[0, 0])  # the edge's height at x = 0
+    assert over_ridge >= radius + THICKNESS - 1e-9 and np.all(moved[:, 2] <= SKEWER_M + THICKNESS)
+    assert np.abs(moved[0, 2] - moved[1, 2]) < 0.1 * moved[0, 2]  # whole, not turned about an end
+
+
+def test_an_edge_through_a_tube_too_wide_to_clear_is_left():
+    """A tube wider than ``SKEWER_M`` across from the edge: no near side, nothing moved (the pinch between two legs,
+    where a push out of one leg is into the other)."""
+    surface = InnerSurface(*_tube(radius=0.2, around=24, length=0.6), reach=0.05)
+    x = np.array([[-0.3, 0.013, 0.02], [0.3, 0.013, 0.02]])  # through two facets, clear of their edges
+    assert surface.edges_through(x, np.array([[0, 1]])) == 1
+    before = x.copy()
+    _separate(surface, x, edges=np.array([[0, 1]]))
+    assert np.array_equal(x, before)
+
+
+def test_the_inner_surface_gives_way_under_a_point_the_body_holds_in_it():
+    """A forearm holds a skirt point 3 mm under the trousers: the trouser triangle it is under goes in until the
+    point is the thickness outside it; a point held deeper than ``GIVE_M`` moves nothing, and nor do pinned
+    inner points."""
+    y, triangles = _sheet()
+    surface = InnerSurface(y.copy(), triangles, reach=0.05)
+    x = np.array([[0.01, 0.02, -0.003], [-0.08, -0.08, -(GIVE_M + 0.005)]])
+    movable = np.ones(len(y), bool)
+    assert surface.give_way(x, np.array([1]), movable, THICKNESS) == 0
+    assert np.array_equal(surface.positions, y)
+    assert surface.give_way(x, np.array([0]), movable, THICKNESS) == 3
+    moved = np.flatnonzero(np.any(surface.positions != y, axis=1))
+    assert len(moved) == 3
+    assert surface.positions[moved, 2] == pytest.approx(np.full(3, -0.003 - THICKNESS))
+    assert np.array_equal(surface.positions[moved, :2], y[moved, :2])  # along the normal only
+    pinned = InnerSurface(y.copy(), triangles, reach=0.05)
+    movable[moved] = False
+    assert pinned.give_way(x, np.array([0]), movable, THICKNESS) == 0
 
 
 def test_an_edge_through_the_surface_by_its_pinned_end_does_not_fling_its_free_end():

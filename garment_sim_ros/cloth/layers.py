@@ -59,6 +59,12 @@ CELL_PER_TRIANGLE = 1.5  # the grid's cell, in a typical inner triangle's radii 
 _TRACK_DEPTH = 0.05  # m: a point this far behind the triangle it was over has not been pushed through it
 _LEVER = 0.25  # an edge moves by its ends while (1 - s)^2 + s^2 of the free ones reaches this: at most twice as far
 _FOLD = 0.3  # |n1 + n2| of two unit normals below which the triangles are the two sides of a flat fold
+# an edge through a whole trouser leg or fold (``_clear_skewer``) moves out sideways at most this far, m (a
+# thigh's trouser leg is 14 cm across: out of its middle, 7 cm and the thickness), the way with the least
+# of the inner garment of this many directions across it
+SKEWER_M = 0.1
+SKEWER_DIRECTIONS = 16
+GIVE_M = 0.01  # m: the most an inner garment gives way under an outer point the body holds in it (``give_way``)
 
 
 @njit(cache=True, inline="always")
@@ -218,8 +224,15 @@ def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, radi
                     continue  # most triangles of a cell are nowhere near the edge
                 moved += _edge_near_triangle(x, v, pushed, movable, p0, p1, y, triangles, normals, t, thickness,
                                              reach)
-            moved += _edge_through(x, v, pushed, movable, p0, p1, y, triangles, normals, found, count, thickness,
-                                   reach)
+            through, skewer_s = _edge_through(x, v, pushed, movable, p0, p1, y, triangles, normals, found, count,
+                                              thickness, reach)
+            moved += through
+            if skewer_s >= 0.0:
+                query += 1
+                count = near_segment(x[p0, 0], x[p0, 1], x[p0, 2], x[p1, 0], x[p1, 1], x[p1, 2], SKEWER_M, origin,
+                                     dims, cell, starts, entries, stamp, query, found, False)
+                moved += _clear_skewer(x, v, pushed, movable, p0, p1, skewer_s, y, triangles, found, count,
+                                       thickness)
         total += moved
         if moved == 0:
             break
@@ -283,7 +296,7 @@ def _edge_through(x, v, pushed, movable, p0, p1, y, triangles, normals, found, c
     Returns the pushes made."""
     first, first_s, last, last_s = first_and_last_crossing(x, p0, p1, y, triangles, found, count)
     if first < 0:
-        return 0
+        return 0, -1.0
     dx, dy, dz = x[p1, 0] - x[p0, 0], x[p1, 1] - x[p0, 1], x[p1, 2] - x[p0, 2]
     enters = dx * normals[first, 0] + dy * normals[first, 1] + dz * normals[first, 2] < 0.0
     leaves = dx * normals[last, 0] + dy * normals[last, 1] + dz * normals[last, 2] > 0.0
@@ -292,7 +305,7 @@ def _edge_through(x, v, pushed, movable, p0, p1, y, triangles, normals, found, c
             normals[last, 2]
         norm = math.sqrt(ux * ux + uy * uy + uz * uz)
         if norm < _FOLD:
-            return 0  # the two sides of a flat fold: no way out along their normals
+            return 0, 0.5 * (first_s + last_s)  # through a tube or both sides of a fold: no way out along them
         ux, uy, uz = ux / norm, uy / norm, uz / norm
         # heights over the two planes along the edge: h_first(s) falls, h_last(s) rises; the deepest point of
         # their wedge is where they meet, and a move along u raises both alike
@@ -306,14 +319,110 @@ def _edge_through(x, v, pushed, movable, p0, p1, y, triangles, normals, found, c
         rise = ux * normals[first, 0] + uy * normals[first, 1] + uz * normals[first, 2]
         distance = (thickness - deepest) / rise
         if not 0.0 < distance < math.sqrt(dx * dx + dy * dy + dz * dz):
-            return 0  # a wedge deeper than the edge is long is no tube the edge spans
-        return _push_edge(x, v, pushed, movable, p0, p1, s, ux, uy, uz, distance)
+            return 0, 0.5 * (first_s + last_s)  # a wedge deeper than the edge is long: no tube's top it spans
+        return _push_edge(x, v, pushed, movable, p0, p1, s, ux, uy, uz, distance), -1.0
     moved = 0
     for (inside, end, t) in ((not enters, p0, first), (not leaves, p1, last)):
         if inside and movable[end]:
             d = _height(x, end, y, triangles[t, 0], normals, t)
             if -reach < d < thickness:
                 _push_out(x, v, pushed, end, normals, t, thickness - d)
+                moved += 1
+    return moved, -1.0
+
+
+@njit(cache=True, inline="always")
+def _clear_skewer(x, v, pushed, movable, p0, p1, s_mid, y, triangles, found, count, thickness):
+    """An outer edge (p0, p1) with both ends outside that runs through the inner surface where no normal shows
+    a way out (through a whole trouser leg, in at one side and out at the other, or through both sides of a
+    fold; its chord's middle at parameter ``s_mid``) moves out sideways, whole: the inner garment seen along the
+    edge (the corners of the candidate triangles ``found[:count]`` that reach across the edge's span, as offsets
+    from the edge's line) is a band, and the edge goes, of ``SKEWER_DIRECTIONS`` directions across it, the way
+    with the least of it, ``thickness`` beyond it, when that is nearer than ``SKEWER_M`` and the edge's length
+    (farther, the band has no near side: the pinch between two legs). Both ends must be free (one end moved
+    alone would turn the edge about the other). Returns the pushes made."""
+    if not (movable[p0] and movable[p1]):
+        return 0
+    dx, dy, dz = x[p1, 0] - x[p0, 0], x[p1, 1] - x[p0, 1], x[p1, 2] - x[p0, 2]
+    length = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if length < 1e-9:
+        return 0
+    dx, dy, dz = dx / length, dy / length, dz / length
+    # two unit directions across the edge: e1 from the axis the edge is least along, e2 = d x e1
+    if abs(dx) <= abs(dy) and abs(dx) <= abs(dz):
+        ax, ay, az = 1.0, 0.0, 0.0
+    elif abs(dy) <= abs(dz):
+        ax, ay, az = 0.0, 1.0, 0.0
+    else:
+        ax, ay, az = 0.0, 0.0, 1.0
+    along = ax * dx + ay * dy + az * dz
+    e1x, e1y, e1z = ax - along * dx, ay - along * dy, az - along * dz
+    norm = math.sqrt(e1x * e1x + e1y * e1y + e1z * e1z)
+    e1x, e1y, e1z = e1x / norm, e1y / norm, e1z / norm
+    e2x, e2y, e2z = dy * e1z - dz * e1y, dz * e1x - dx * e1z, dx * e1y - dy * e1x
+    mx = x[p0, 0] + s_mid * length * dx
+    my = x[p0, 1] + s_mid * length * dy
+    mz = x[p0, 2] + s_mid * length * dz
+    reach = min(SKEWER_M, length)
+    support = np.zeros(SKEWER_DIRECTIONS)  # (K,) m: how far the band reaches each way from the edge's line
+    for m in range(count):
+        t = found[m]
+        lo_s, hi_s = np.inf, -np.inf
+        for j in range(3):
+            q = triangles[t, j]
+            sq = (y[q, 0] - x[p0, 0]) * dx + (y[q, 1] - x[p0, 1]) * dy + (y[q, 2] - x[p0, 2]) * dz
+            lo_s, hi_s = min(lo_s, sq), max(hi_s, sq)
+        if hi_s < 0.0 or lo_s > length:
+            continue  # beside the edge's span: not in its way
+        for j in range(3):
+            q = triangles[t, j]
+            wx, wy, wz = y[q, 0] - mx, y[q, 1] - my, y[q, 2] - mz
+            c1, c2 = wx * e1x + wy * e1y + wz * e1z, wx * e2x + wy * e2y + wz * e2z
+            for k in range(SKEWER_DIRECTIONS):
+                angle = 2.0 * math.pi * k / SKEWER_DIRECTIONS
+                support[k] = max(support[k], c1 * math.cos(angle) + c2 * math.sin(angle))
+    best = int(np.argmin(support))
+    distance = support[best] + thickness
+    if distance >= reach:
+        return 0
+    angle = 2.0 * math.pi * best / SKEWER_DIRECTIONS
+    ux = math.cos(angle) * e1x + math.sin(angle) * e2x
+    uy = math.cos(angle) * e1y + math.sin(angle) * e2y
+    uz = math.cos(angle) * e1z + math.sin(angle) * e2z
+    _push(x, v, pushed, p0, ux, uy, uz, distance)
+    _push(x, v, pushed, p1, ux, uy, uz, distance)
+    return 1
+
+
+@njit(cache=True)
+def give_way(x, held, y, movable, triangles, normals, thickness, most, reach, origin, dims, cell, starts, entries):
+    """The inner garment gives way where the body holds an outer point in it (a forearm pressing a skirt onto the
+    trousers' hip: the skirt's push out went into the forearm and was undone): for each point ``held`` (H,) of
+    ``x`` (N, 3), the inner triangle (T, 3) of ``y`` (M, 3) it is over, nearest within ``reach``, goes in along its
+    normal until the point is ``thickness`` outside it, when that is at most ``most`` m; ``y`` changed in place
+    (``movable`` (M,) bool: its free points), the triangles' ``normals`` and grid those of before. Returns the
+    inner points moved."""
+    stamp = np.full(triangles.shape[0], -1, dtype=np.int64)
+    found = np.empty(triangles.shape[0], dtype=np.int64)
+    moved = 0
+    for query in range(held.shape[0]):
+        i = held[query]
+        px, py, pz = x[i, 0], x[i, 1], x[i, 2]
+        best_d, best_t = reach, -1
+        for m in range(near_segment(px, py, pz, px, py, pz, reach, origin, dims, cell, starts, entries, stamp, query,
+                                    found, False)):
+            t = found[m]
+            a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+            d = _height(x, i, y, a, normals, t)
+            if abs(d) < abs(best_d) and _over(px, py, pz, y, a, b, c, normals[t, 0], normals[t, 1], normals[t, 2]):
+                best_d, best_t = d, t
+        if best_t < 0 or not 0.0 < thickness - best_d <= most:
+            continue
+        for j in range(3):
+            q = triangles[best_t, j]
+            if movable[q]:
+                for k in range(3):
+                    y[q, k] -= (thickness - best_d) * normals[best_t, k]
                 moved += 1
     return moved
 
@@ -346,6 +455,14 @@ class InnerSurface:
                             np.ascontiguousarray(edges, dtype=np.int64), self.positions, self.triangles, self.normals,
                             self.radii, float(thickness), self.reach, self.origin, self.dims, self.cell, self.starts,
                             self.entries, tracked, SWEEPS))
+
+    def give_way(self, x: np.ndarray, held: np.ndarray, movable: np.ndarray, thickness: float) -> int:
+        """These triangles' points (``positions``, changed in place: the inner garment's own when it was built from
+        them) give way under the outer points ``held`` (H,) int64 of ``x`` (N, 3), at most ``GIVE_M``; ``movable``
+        (M,) bool. Returns the inner points moved."""
+        return int(give_way(np.ascontiguousarray(x, dtype=np.float64), np.ascontiguousarray(held, dtype=np.int64),
+                            self.positions, movable, self.triangles, self.normals, float(thickness), GIVE_M,
+                            self.reach, self.origin, self.dims, self.cell, self.starts, self.entries))
 
     def crossings(self, x: np.ndarray, edges: np.ndarray) -> np.ndarray:
         """(E, 2) int64: per edge (E, 2) of points ``x`` (N, 3), the first and last of these triangles it crosses
