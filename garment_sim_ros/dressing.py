@@ -226,30 +226,7 @@ class DressedCharacter:
                 # body's handling left it.
                 deeper = solver.collider.penetration_depths(state.positions) - solver.collider.penetration_depths(
                     kept[0])
-                if keep_where_inside(state.positions, state.velocities, *kept, deeper - 1e-6):
-                    self._give_way(row, np.flatnonzero(deeper > 1e-6), surfaces)
-
-    def _give_way(self, row: int, held: np.ndarray, surfaces: dict[int, InnerSurface]) -> None:
-        """The garments under garment ``row`` give way under its points ``held`` (the body held them in them,
-        ``InnerSurface.give_way``) where they have room: a point that gave way stays put if it would be less than
-        ``layer_thickness`` off a volume (pressed between the outer point and the body it would be squeezed into
-        it by the next frame's collision handling: CC walk, the trousers 7.8 mm deep at the hip under a forearm)."""
-        x = self.solvers[row].state.positions
-        for inner in self._inner[row]:
-            solver = self.solvers[inner]
-            state = solver.state
-            kept = (state.positions.copy(), state.velocities.copy())
-            surface = self._surface(inner, surfaces)
-            if surface.positions is not state.positions:
-                continue  # a surface built from a copy: moving it would not move the garment
-            thickness = solver.params.layer_thickness
-            if not surface.give_way(x, held, solver.constants.inv_mass > 0.0, thickness) or solver.collider is None:
-                continue
-            step = state.positions - kept[0]
-            length = np.linalg.norm(step, axis=1, keepdims=True)
-            ahead = state.positions + thickness * step / np.maximum(length, 1e-12)
-            crowded = (length[:, 0] > 0.0) & (solver.collider.penetration_depths(ahead) > 0.0)
-            keep_where_inside(state.positions, state.velocities, *kept, np.where(crowded, 1.0, -1.0))
+                keep_where_inside(state.positions, state.velocities, *kept, deeper - 1e-6)
 
     def layer_crossings(self) -> list[int]:
         """Per garment, how many of its edges cross a triangle of a garment worn under it (0 for the

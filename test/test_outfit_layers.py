@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from garment_sim_ros.cloth.layers import GIVE_M, SKEWER_M, SWEEPS, InnerSurface, separate
+from garment_sim_ros.cloth.layers import SKEWER_M, SWEEPS, InnerSurface, separate
 from garment_sim_ros.cloth.outfit_rules import BONE_PASSES, undo_bone_crossings
 from garment_sim_ros.cloth.triangle_grid import build_grid, count_edges_through
 from garment_sim_ros.quality import segments_through_triangles
@@ -167,26 +167,6 @@ def test_an_edge_through_a_tube_too_wide_to_clear_is_left():
     before = x.copy()
     _separate(surface, x, edges=np.array([[0, 1]]))
     assert np.array_equal(x, before)
-
-
-def test_the_inner_surface_gives_way_under_a_point_the_body_holds_in_it():
-    """A forearm holds a skirt point 3 mm under the trousers: the trouser triangle it is under goes in until the
-    point is the thickness outside it; a point held deeper than ``GIVE_M`` moves nothing, and nor do pinned
-    inner points."""
-    y, triangles = _sheet()
-    surface = InnerSurface(y.copy(), triangles, reach=0.05)
-    x = np.array([[0.01, 0.02, -0.003], [-0.08, -0.08, -(GIVE_M + 0.005)]])
-    movable = np.ones(len(y), bool)
-    assert surface.give_way(x, np.array([1]), movable, THICKNESS) == 0
-    assert np.array_equal(surface.positions, y)
-    assert surface.give_way(x, np.array([0]), movable, THICKNESS) == 3
-    moved = np.flatnonzero(np.any(surface.positions != y, axis=1))
-    assert len(moved) == 3
-    assert surface.positions[moved, 2] == pytest.approx(np.full(3, -0.003 - THICKNESS))
-    assert np.array_equal(surface.positions[moved, :2], y[moved, :2])  # along the normal only
-    pinned = InnerSurface(y.copy(), triangles, reach=0.05)
-    movable[moved] = False
-    assert pinned.give_way(x, np.array([0]), movable, THICKNESS) == 0
 
 
 def test_an_edge_through_the_surface_by_its_pinned_end_does_not_fling_its_free_end():

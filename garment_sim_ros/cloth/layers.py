@@ -23,10 +23,13 @@ the cells its box, grown by how near it looks, touches):
    10-18 cm edge across a trouser leg) and moves out whole, along the two triangles' mean normal, until its
    deepest point is ``thickness`` out; otherwise the end behind a crossing goes ``thickness`` out of that
    triangle's plane when it is less than ``reach`` through (deeper, the end is not inside the inner garment
-   but behind a fold of it, and pushing it across would tear the cloth).
+   but behind a fold of it, and pushing it across would tear the cloth); an edge through a whole trouser leg
+   or both sides of a fold (the crossed normals face apart: no way out along them) moves out sideways, whole,
+   the short way across the inner garment seen along it (``_clear_skewer``), at most ``SKEWER_M``.
 
 The inner garment is not moved (one-way coupling: it is pressed by the body only; the outer one is the
-lighter drape over it). Points pushed lose their velocity into the inner surface. All in the simulation
+lighter drape over it; letting it give way under an outer point the body holds in it cost the trousers their
+own targets: README, "Outfits"). Points pushed lose their velocity into the inner surface. All in the simulation
 (root) frame, metres. The grid and the crossing count (the layers' bone-through-cloth check) are
 ``cloth.triangle_grid``'s; what the outer garment owes the body after these passes (a triangle put across a
 limb bone goes back) and the bands carried alike are ``cloth.outfit_rules``'.
@@ -58,13 +61,12 @@ SWEEPS = 8
 CELL_PER_TRIANGLE = 1.5  # the grid's cell, in a typical inner triangle's radii (centroid to farthest corner)
 _TRACK_DEPTH = 0.05  # m: a point this far behind the triangle it was over has not been pushed through it
 _LEVER = 0.25  # an edge moves by its ends while (1 - s)^2 + s^2 of the free ones reaches this: at most twice as far
-_FOLD = 0.3  # |n1 + n2| of two unit normals below which the triangles are the two sides of a flat fold
+FOLD = 0.3  # |n1 + n2| of two unit normals below which the triangles are the two sides of a flat fold
 # an edge through a whole trouser leg or fold (``_clear_skewer``) moves out sideways at most this far, m (a
 # thigh's trouser leg is 14 cm across: out of its middle, 7 cm and the thickness), the way with the least
 # of the inner garment of this many directions across it
 SKEWER_M = 0.1
 SKEWER_DIRECTIONS = 16
-GIVE_M = 0.01  # m: the most an inner garment gives way under an outer point the body holds in it (``give_way``)
 
 
 @njit(cache=True, inline="always")
@@ -304,7 +306,7 @@ def _edge_through(x, v, pushed, movable, p0, p1, y, triangles, normals, found, c
         ux, uy, uz = normals[first, 0] + normals[last, 0], normals[first, 1] + normals[last, 1], normals[first, 2] + \
             normals[last, 2]
         norm = math.sqrt(ux * ux + uy * uy + uz * uz)
-        if norm < _FOLD:
+        if norm < FOLD:
             return 0, 0.5 * (first_s + last_s)  # through a tube or both sides of a fold: no way out along them
         ux, uy, uz = ux / norm, uy / norm, uz / norm
         # heights over the two planes along the edge: h_first(s) falls, h_last(s) rises; the deepest point of
@@ -394,39 +396,6 @@ def _clear_skewer(x, v, pushed, movable, p0, p1, s_mid, y, triangles, found, cou
     return 1
 
 
-@njit(cache=True)
-def give_way(x, held, y, movable, triangles, normals, thickness, most, reach, origin, dims, cell, starts, entries):
-    """The inner garment gives way where the body holds an outer point in it (a forearm pressing a skirt onto the
-    trousers' hip: the skirt's push out went into the forearm and was undone): for each point ``held`` (H,) of
-    ``x`` (N, 3), the inner triangle (T, 3) of ``y`` (M, 3) it is over, nearest within ``reach``, goes in along its
-    normal until the point is ``thickness`` outside it, when that is at most ``most`` m; ``y`` changed in place
-    (``movable`` (M,) bool: its free points), the triangles' ``normals`` and grid those of before. Returns the
-    inner points moved."""
-    stamp = np.full(triangles.shape[0], -1, dtype=np.int64)
-    found = np.empty(triangles.shape[0], dtype=np.int64)
-    moved = 0
-    for query in range(held.shape[0]):
-        i = held[query]
-        px, py, pz = x[i, 0], x[i, 1], x[i, 2]
-        best_d, best_t = reach, -1
-        for m in range(near_segment(px, py, pz, px, py, pz, reach, origin, dims, cell, starts, entries, stamp, query,
-                                    found, False)):
-            t = found[m]
-            a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-            d = _height(x, i, y, a, normals, t)
-            if abs(d) < abs(best_d) and _over(px, py, pz, y, a, b, c, normals[t, 0], normals[t, 1], normals[t, 2]):
-                best_d, best_t = d, t
-        if best_t < 0 or not 0.0 < thickness - best_d <= most:
-            continue
-        for j in range(3):
-            q = triangles[best_t, j]
-            if movable[q]:
-                for k in range(3):
-                    y[q, k] -= (thickness - best_d) * normals[best_t, k]
-                moved += 1
-    return moved
-
-
 class InnerSurface:
     """An inner garment's triangles at its current positions, binned for ``separate`` and
     ``count_edges_through``. ``positions`` (M, 3) m, ``triangles`` (T, 3); ``reach`` m (how near a point
@@ -455,14 +424,6 @@ class InnerSurface:
                             np.ascontiguousarray(edges, dtype=np.int64), self.positions, self.triangles, self.normals,
                             self.radii, float(thickness), self.reach, self.origin, self.dims, self.cell, self.starts,
                             self.entries, tracked, SWEEPS))
-
-    def give_way(self, x: np.ndarray, held: np.ndarray, movable: np.ndarray, thickness: float) -> int:
-        """These triangles' points (``positions``, changed in place: the inner garment's own when it was built from
-        them) give way under the outer points ``held`` (H,) int64 of ``x`` (N, 3), at most ``GIVE_M``; ``movable``
-        (M,) bool. Returns the inner points moved."""
-        return int(give_way(np.ascontiguousarray(x, dtype=np.float64), np.ascontiguousarray(held, dtype=np.int64),
-                            self.positions, movable, self.triangles, self.normals, float(thickness), GIVE_M,
-                            self.reach, self.origin, self.dims, self.cell, self.starts, self.entries))
 
     def crossings(self, x: np.ndarray, edges: np.ndarray) -> np.ndarray:
         """(E, 2) int64: per edge (E, 2) of points ``x`` (N, 3), the first and last of these triangles it crosses
