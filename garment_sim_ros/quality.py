@@ -15,7 +15,7 @@ measured by:
   triangle whose corners all lie outside (the corner where a contact plane meets a volume's curved surface,
   long or stretched triangles round a small radius);
 - (f) in an outfit, layer crossings: a garment's edges through a triangle of one worn under it
-  (``cloth.layers.count_edges_through``; ``DressedCharacter.measure`` fills it).
+  (``cloth.triangle_grid.count_edges_through``; ``DressedCharacter.measure`` fills it).
 
 ``GarmentMeter.measure`` fills a ``FrameReport``'s figures; ``DressedCharacter.step`` calls it
 after every frame. ``Targets`` is the one table of pass/fail thresholds (``garment-sim evaluate``).

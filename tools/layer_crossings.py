@@ -7,6 +7,8 @@ of it, from its first and last crossing along it:
 
 - ``straddle``: enters the inner surface at its first crossing and leaves it at its last, both ends outside
   (a long skirt's edge across a trouser leg or a fold);
+- ``skewer``: a straddle whose two crossed triangles face apart (``FOLD``): through a whole trouser leg or both
+  sides of a fold, which ``_clear_skewer`` moves out sideways when the way out is near;
 - ``inside-shallow`` / ``inside-deep``: an end behind a crossing, less / more than ``REACH_M`` (5 cm) behind
   that triangle's plane (deeper: behind a fold, such as the crotch, not inside the trousers);
 - ``inside-pinned``: that end is attached (not moved by the layers).
@@ -24,7 +26,7 @@ import collections
 import numpy as np
 
 from garment_sim_ros.body.sources import bvh_source
-from garment_sim_ros.cloth.layers import REACH_M, InnerSurface
+from garment_sim_ros.cloth.layers import FOLD, REACH_M, InnerSurface
 from garment_sim_ros.commands.simulate import simulate_frames
 from garment_sim_ros.dressing import make_character
 from garment_sim_ros.params import preset
@@ -40,7 +42,8 @@ def kinds(surface: InnerSurface, x: np.ndarray, edges: np.ndarray, movable: np.n
         d = x[p1] - x[p0]
         enters, leaves = d @ surface.normals[first] < 0.0, d @ surface.normals[last] > 0.0
         if enters and leaves:
-            found.append("straddle")
+            found.append("skewer" if np.linalg.norm(surface.normals[first] + surface.normals[last]) < FOLD else
+                         "straddle")
             continue
         for inside, end, t in ((not enters, p0, first), (not leaves, p1, last)):
             if inside:
@@ -74,7 +77,7 @@ def main() -> int:
         edges_of["any"] += len(seen)
         frames_with.update(set(seen) | ({"any"} if seen else set()))
     print(f"{args.clip} {args.outfit}: {frames} frames")
-    for kind in ("any", "straddle", "inside-shallow", "inside-deep", "inside-pinned"):
+    for kind in ("any", "straddle", "skewer", "inside-shallow", "inside-deep", "inside-pinned"):
         print(f"  {kind:15s} frames {frames_with[kind]:4d}  edges {edges_of[kind]:5d}")
     return 0
 

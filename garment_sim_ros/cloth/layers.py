@@ -23,27 +23,34 @@ the cells its box, grown by how near it looks, touches):
    10-18 cm edge across a trouser leg) and moves out whole, along the two triangles' mean normal, until its
    deepest point is ``thickness`` out; otherwise the end behind a crossing goes ``thickness`` out of that
    triangle's plane when it is less than ``reach`` through (deeper, the end is not inside the inner garment
-   but behind a fold of it, and pushing it across would tear the cloth).
+   but behind a fold of it, and pushing it across would tear the cloth); an edge through a whole trouser leg
+   or both sides of a fold (the crossed normals face apart: no way out along them) moves out sideways, whole,
+   the short way across the inner garment seen along it (``_clear_skewer``), at most ``SKEWER_M``.
 
 The inner garment is not moved (one-way coupling: it is pressed by the body only; the outer one is the
-lighter drape over it). Points pushed lose their velocity into the inner surface. All in the simulation
-(root) frame, metres. ``count_edges_through`` is the layers' bone-through-cloth check: outer edges
-crossing an inner triangle, through the same grid.
+lighter drape over it; letting it give way under an outer point the body holds in it cost the trousers their
+own targets: README, "Outfits"). Points pushed lose their velocity into the inner surface. All in the simulation
+(root) frame, metres. The grid and the crossing count (the layers' bone-through-cloth check) are
+``cloth.triangle_grid``'s; what the outer garment owes the body after these passes (a triangle put across a
+limb bone goes back) and the bands carried alike are ``cloth.outfit_rules``'.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from typing import Sequence
 
 import numpy as np
 from numba import njit
 
 from ..collision.crossing import segment_crosses_triangle, segment_misses_triangle_box
-from .garments import GarmentMesh
-
-SAME_BAND_M = 0.02  # m: an outer garment's attachment this close to an inner one's is carried as that one is
+from .triangle_grid import (
+    build_grid,
+    count_edges_through,
+    edge_crossings,
+    first_and_last_crossing,
+    near_segment,
+    triangle_normals,
+)
 
 REACH_M = 0.05  # m: an outer point this close over an inner garment's triangle is checked against it
 _SETTLED = 1e-6  # m: a point this close to the thickness is where it belongs (no sweep for rounding)
@@ -51,110 +58,15 @@ _SETTLED = 1e-6  # m: a point this close to the thickness is where it belongs (n
 # crease can put it through the next; CC walk, pants + long skirt, 3 s, before the bone rule: 3 sweeps left 50
 # crossing frames of 156, 8 left 45)
 SWEEPS = 8
-BONE_PASSES = 4  # undo_bone_crossings' passes (a corner put back can cross a neighbour)
-BACK_STEPS = 4  # undo_bone_crossings puts a triangle back by quarters of the way, the least that clears the bone
 CELL_PER_TRIANGLE = 1.5  # the grid's cell, in a typical inner triangle's radii (centroid to farthest corner)
 _TRACK_DEPTH = 0.05  # m: a point this far behind the triangle it was over has not been pushed through it
 _LEVER = 0.25  # an edge moves by its ends while (1 - s)^2 + s^2 of the free ones reaches this: at most twice as far
-_FOLD = 0.3  # |n1 + n2| of two unit normals below which the triangles are the two sides of a flat fold
-
-
-@njit(cache=True)
-def build_grid(y, triangles, cell):
-    """Triangles of points ``y`` (M, 3) binned into cubic cells of ``cell`` m, each in every cell its box
-    touches (a counting sort: count, prefix sum, fill). Returns (origin (3,) m, dims (3,) int, starts (C+1,),
-    entries) with cell ``(i * dims[1] + j) * dims[2] + k`` holding ``entries[starts[key]:starts[key + 1]]``."""
-    lo = np.empty(3)
-    hi = np.empty(3)
-    for k in range(3):
-        lo[k] = y[:, k].min() - 1e-6
-        hi[k] = y[:, k].max() + 1e-6
-    dims = np.empty(3, dtype=np.int64)
-    for k in range(3):
-        dims[k] = int((hi[k] - lo[k]) / cell) + 1
-    counts = np.zeros(dims[0] * dims[1] * dims[2] + 1, dtype=np.int64)
-    starts = counts
-    entries = np.empty(0, dtype=np.int64)
-    fill = counts
-    for phase in range(2):
-        if phase == 1:
-            starts = np.cumsum(counts)
-            entries = np.empty(starts[-1], dtype=np.int64)
-            fill = starts[:-1].copy()
-        for t in range(triangles.shape[0]):
-            a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-            i0 = int((min(y[a, 0], y[b, 0], y[c, 0]) - lo[0]) / cell)
-            i1 = int((max(y[a, 0], y[b, 0], y[c, 0]) - lo[0]) / cell)
-            j0 = int((min(y[a, 1], y[b, 1], y[c, 1]) - lo[1]) / cell)
-            j1 = int((max(y[a, 1], y[b, 1], y[c, 1]) - lo[1]) / cell)
-            k0 = int((min(y[a, 2], y[b, 2], y[c, 2]) - lo[2]) / cell)
-            k1 = int((max(y[a, 2], y[b, 2], y[c, 2]) - lo[2]) / cell)
-            for i in range(max(i0, 0), min(i1, dims[0] - 1) + 1):
-                for j in range(max(j0, 0), min(j1, dims[1] - 1) + 1):
-                    for k in range(max(k0, 0), min(k1, dims[2] - 1) + 1):
-                        key = (i * dims[1] + j) * dims[2] + k
-                        if phase == 0:
-                            counts[key + 1] += 1
-                        else:
-                            entries[fill[key]] = t
-                            fill[key] += 1
-    return lo, dims, starts, entries
-
-
-@njit(cache=True)
-def triangle_normals(y, triangles, normals):
-    """Unit normals (T, 3) of the triangles of ``y`` (0 for a degenerate one), written to ``normals``."""
-    for t in range(triangles.shape[0]):
-        a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-        e1x, e1y, e1z = y[b, 0] - y[a, 0], y[b, 1] - y[a, 1], y[b, 2] - y[a, 2]
-        e2x, e2y, e2z = y[c, 0] - y[a, 0], y[c, 1] - y[a, 1], y[c, 2] - y[a, 2]
-        nx, ny, nz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
-        norm = math.sqrt(nx * nx + ny * ny + nz * nz)
-        scale = 1.0 / norm if norm > 1e-12 else 0.0
-        normals[t, 0], normals[t, 1], normals[t, 2] = nx * scale, ny * scale, nz * scale
-
-
-@njit(cache=True, inline="always")
-def _cell_range(lo_p, hi_p, origin, dims, cell, axis):
-    """The grid cells along ``axis`` a coordinate range touches (first, last + 1)."""
-    first = max(int(math.floor((lo_p - origin[axis]) / cell)), 0)
-    last = min(int(math.floor((hi_p - origin[axis]) / cell)), dims[axis] - 1)
-    return first, last + 1
-
-
-@njit(cache=True, inline="always")
-def _near_box(lox, loy, loz, hix, hiy, hiz, origin, dims, cell, starts, entries, stamp, query, found, ordered):
-    """The triangles binned in the cells the box ``lo`` .. ``hi`` touches, each once, written to ``found``
-    (T,); returns how many. ``stamp`` (T,) holds the last query that found each triangle; ``query`` is new.
-    ``ordered``: in increasing order, so that pushes made one after another (the edge passes) do not depend
-    on the grid's cells."""
-    count = 0
-    i0, i1 = _cell_range(lox, hix, origin, dims, cell, 0)
-    j0, j1 = _cell_range(loy, hiy, origin, dims, cell, 1)
-    k0, k1 = _cell_range(loz, hiz, origin, dims, cell, 2)
-    for ci in range(i0, i1):
-        for cj in range(j0, j1):
-            for ck in range(k0, k1):
-                key = (ci * dims[1] + cj) * dims[2] + ck
-                for e in range(starts[key], starts[key + 1]):
-                    t = entries[e]
-                    if stamp[t] != query:
-                        stamp[t] = query
-                        # insertion: an edge's box finds a few tens of triangles
-                        m = count
-                        while ordered and m > 0 and found[m - 1] > t:
-                            found[m] = found[m - 1]
-                            m -= 1
-                        found[m] = t
-                        count += 1
-    return count
-
-
-@njit(cache=True, inline="always")
-def _near_segment(px, py, pz, qx, qy, qz, pad, origin, dims, cell, starts, entries, stamp, query, found, ordered):
-    """``_near_box`` for the box of segment p -> q grown by ``pad`` m."""
-    return _near_box(min(px, qx) - pad, min(py, qy) - pad, min(pz, qz) - pad, max(px, qx) + pad, max(py, qy) + pad,
-                     max(pz, qz) + pad, origin, dims, cell, starts, entries, stamp, query, found, ordered)
+FOLD = 0.3  # |n1 + n2| of two unit normals below which the triangles are the two sides of a flat fold
+# an edge through a whole trouser leg or fold (``_clear_skewer``) moves out sideways at most this far, m (a
+# thigh's trouser leg is 14 cm across: out of its middle, 7 cm and the thickness), the way with the least
+# of the inner garment of this many directions across it
+SKEWER_M = 0.1
+SKEWER_DIRECTIONS = 16
 
 
 @njit(cache=True, inline="always")
@@ -253,7 +165,7 @@ def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, radi
                 dx, dy, dz = x[i, 0] - px, x[i, 1] - py, x[i, 2] - pz
                 best_s, best_t = 2.0, -1
                 query += 1
-                for m in range(_near_segment(px, py, pz, x[i, 0], x[i, 1], x[i, 2], 0.0, origin, dims, cell, starts,
+                for m in range(near_segment(px, py, pz, x[i, 0], x[i, 1], x[i, 2], 0.0, origin, dims, cell, starts,
                                              entries, stamp, query, found, False)):
                     t = found[m]
                     # from the outer side to the inner side only
@@ -289,7 +201,7 @@ def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, radi
             px, py, pz = x[i, 0], x[i, 1], x[i, 2]
             best_d, best_t = reach, -1
             query += 1
-            for m in range(_near_segment(px, py, pz, px, py, pz, reach, origin, dims, cell, starts, entries, stamp,
+            for m in range(near_segment(px, py, pz, px, py, pz, reach, origin, dims, cell, starts, entries, stamp,
                                          query, found, False)):
                 t = found[m]
                 a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
@@ -306,7 +218,7 @@ def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, radi
             if not (look[p0] or look[p1]):
                 continue
             query += 1
-            count = _near_segment(x[p0, 0], x[p0, 1], x[p0, 2], x[p1, 0], x[p1, 1], x[p1, 2], thickness, origin, dims,
+            count = near_segment(x[p0, 0], x[p0, 1], x[p0, 2], x[p1, 0], x[p1, 1], x[p1, 2], thickness, origin, dims,
                                   cell, starts, entries, stamp, query, found, True)
             for m in range(count):
                 t = found[m]
@@ -314,8 +226,15 @@ def separate(x, v, movable, x_prev, use_path, edges, y, triangles, normals, radi
                     continue  # most triangles of a cell are nowhere near the edge
                 moved += _edge_near_triangle(x, v, pushed, movable, p0, p1, y, triangles, normals, t, thickness,
                                              reach)
-            moved += _edge_through(x, v, pushed, movable, p0, p1, y, triangles, normals, found, count, thickness,
-                                   reach)
+            through, skewer_s = _edge_through(x, v, pushed, movable, p0, p1, y, triangles, normals, found, count,
+                                              thickness, reach)
+            moved += through
+            if skewer_s >= 0.0:
+                query += 1
+                count = near_segment(x[p0, 0], x[p0, 1], x[p0, 2], x[p1, 0], x[p1, 1], x[p1, 2], SKEWER_M, origin,
+                                     dims, cell, starts, entries, stamp, query, found, False)
+                moved += _clear_skewer(x, v, pushed, movable, p0, p1, skewer_s, y, triangles, found, count,
+                                       thickness)
         total += moved
         if moved == 0:
             break
@@ -369,43 +288,6 @@ def _push_edge(x, v, pushed, movable, p0, p1, s, nx, ny, nz, distance):
 
 
 @njit(cache=True, inline="always")
-def _first_and_last_crossing(x, p0, p1, y, triangles, found, count):
-    """The first and last of the triangles ``found[:count]`` that edge (p0, p1) of ``x`` crosses, along it from p0:
-    (first, its segment parameter, last, its parameter); first = -1 when it crosses none."""
-    px, py, pz = x[p0, 0], x[p0, 1], x[p0, 2]
-    dx, dy, dz = x[p1, 0] - px, x[p1, 1] - py, x[p1, 2] - pz
-    first_s, last_s, first, last = 2.0, -1.0, -1, -1
-    for m in range(count):
-        t = found[m]
-        a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-        if segment_misses_triangle_box(y, a, b, c, px, py, pz, x[p1, 0], x[p1, 1], x[p1, 2]):
-            continue
-        hit, s, _, _ = segment_crosses_triangle(px, py, pz, dx, dy, dz, y, a, b, c)
-        if not hit:
-            continue
-        if s < first_s:
-            first_s, first = s, t
-        if s > last_s:
-            last_s, last = s, t
-    return first, first_s, last, last_s
-
-
-@njit(cache=True)
-def edge_crossings(x, edges, y, triangles, origin, dims, cell, starts, entries, crossed):
-    """Per edge (E, 2) of points ``x`` (N, 3), the first and last triangle (T, 3) of points ``y`` it crosses,
-    along it from its first point, through the grid of ``build_grid``: ``crossed`` (E, 2) int64, -1 for none
-    (``tools/layer_crossings.py`` sorts the crossings left with it)."""
-    stamp = np.full(triangles.shape[0], -1, dtype=np.int64)
-    found = np.empty(triangles.shape[0], dtype=np.int64)
-    for k in range(edges.shape[0]):
-        p0, p1 = edges[k, 0], edges[k, 1]
-        count = _near_segment(x[p0, 0], x[p0, 1], x[p0, 2], x[p1, 0], x[p1, 1], x[p1, 2], 0.0, origin, dims, cell,
-                              starts, entries, stamp, k, found, False)
-        first, _, last, _ = _first_and_last_crossing(x, p0, p1, y, triangles, found, count)
-        crossed[k, 0], crossed[k, 1] = first, last
-
-
-@njit(cache=True, inline="always")
 def _edge_through(x, v, pushed, movable, p0, p1, y, triangles, normals, found, count, thickness, reach):
     """Pass 4 of ``separate``: outer edge (p0, p1) through inner triangles (``found[:count]``, the candidates)
     goes out of them. The crossings along the edge, first and last, say which ends are inside the inner
@@ -414,9 +296,9 @@ def _edge_through(x, v, pushed, movable, p0, p1, y, triangles, normals, found, c
     deepest point is ``thickness`` out (the two planes bound a convex tube); otherwise the end behind the
     first crossing (left there) or the last (entered there) goes ``thickness`` out of that triangle's plane.
     Returns the pushes made."""
-    first, first_s, last, last_s = _first_and_last_crossing(x, p0, p1, y, triangles, found, count)
+    first, first_s, last, last_s = first_and_last_crossing(x, p0, p1, y, triangles, found, count)
     if first < 0:
-        return 0
+        return 0, -1.0
     dx, dy, dz = x[p1, 0] - x[p0, 0], x[p1, 1] - x[p0, 1], x[p1, 2] - x[p0, 2]
     enters = dx * normals[first, 0] + dy * normals[first, 1] + dz * normals[first, 2] < 0.0
     leaves = dx * normals[last, 0] + dy * normals[last, 1] + dz * normals[last, 2] > 0.0
@@ -424,8 +306,8 @@ def _edge_through(x, v, pushed, movable, p0, p1, y, triangles, normals, found, c
         ux, uy, uz = normals[first, 0] + normals[last, 0], normals[first, 1] + normals[last, 1], normals[first, 2] + \
             normals[last, 2]
         norm = math.sqrt(ux * ux + uy * uy + uz * uz)
-        if norm < _FOLD:
-            return 0  # the two sides of a flat fold: no way out along their normals
+        if norm < FOLD:
+            return 0, 0.5 * (first_s + last_s)  # through a tube or both sides of a fold: no way out along them
         ux, uy, uz = ux / norm, uy / norm, uz / norm
         # heights over the two planes along the edge: h_first(s) falls, h_last(s) rises; the deepest point of
         # their wedge is where they meet, and a move along u raises both alike
@@ -439,8 +321,8 @@ def _edge_through(x, v, pushed, movable, p0, p1, y, triangles, normals, found, c
         rise = ux * normals[first, 0] + uy * normals[first, 1] + uz * normals[first, 2]
         distance = (thickness - deepest) / rise
         if not 0.0 < distance < math.sqrt(dx * dx + dy * dy + dz * dz):
-            return 0  # a wedge deeper than the edge is long is no tube the edge spans
-        return _push_edge(x, v, pushed, movable, p0, p1, s, ux, uy, uz, distance)
+            return 0, 0.5 * (first_s + last_s)  # a wedge deeper than the edge is long: no tube's top it spans
+        return _push_edge(x, v, pushed, movable, p0, p1, s, ux, uy, uz, distance), -1.0
     moved = 0
     for (inside, end, t) in ((not enters, p0, first), (not leaves, p1, last)):
         if inside and movable[end]:
@@ -448,75 +330,70 @@ def _edge_through(x, v, pushed, movable, p0, p1, y, triangles, normals, found, c
             if -reach < d < thickness:
                 _push_out(x, v, pushed, end, normals, t, thickness - d)
                 moved += 1
-    return moved
+    return moved, -1.0
 
 
-@njit(cache=True)
-def count_edges_through(x, edges, y, triangles, origin, dims, cell, starts, entries):
-    """How many edges (E, 2) of points ``x`` (N, 3) cross a triangle (T, 3) of points ``y`` (M, 3), through
-    the grid of ``build_grid`` (a segment through a triangle's edge or vertex crosses, as for the bones)."""
-    count = 0
-    stamp = np.full(triangles.shape[0], -1, dtype=np.int64)
-    found = np.empty(triangles.shape[0], dtype=np.int64)
-    for k in range(edges.shape[0]):
-        p0, p1 = edges[k, 0], edges[k, 1]
-        px, py, pz = x[p0, 0], x[p0, 1], x[p0, 2]
-        qx, qy, qz = x[p1, 0], x[p1, 1], x[p1, 2]
-        for m in range(_near_segment(px, py, pz, qx, qy, qz, 0.0, origin, dims, cell, starts, entries, stamp, k, found,
-                                     False)):
-            a, b, c = triangles[found[m], 0], triangles[found[m], 1], triangles[found[m], 2]
-            if segment_misses_triangle_box(y, a, b, c, px, py, pz, qx, qy, qz):
-                continue
-            if segment_crosses_triangle(px, py, pz, qx - px, qy - py, qz - pz, y, a, b, c)[0]:
-                count += 1
-                break
-    return count
-
-
-@njit(cache=True)
-def undo_bone_crossings(x, v, x_kept, v_kept, triangles, starts, ends, passes):
-    """The body comes first: a triangle (T, 3) of ``x`` (N, 3) that a limb bone (``starts``, ``ends``: (B, 3))
-    crosses and did not cross at ``x_kept`` (the positions the body's handling left) has its corners put back
-    towards there, by the least quarter of the way that clears the bone (velocities ``v`` from ``v_kept``).
-    Putting a corner back can cross a neighbour that shares it, so up to ``passes`` passes, until one puts
-    nothing back (all back: nothing crosses that did not). Returns the corners moved."""
-    restored = 0
-    saved = np.empty((3, 3))  # a triangle's corners before they go back
-    for _ in range(passes):
-        moved = 0
-        for k in range(starts.shape[0]):
-            px, py, pz = starts[k, 0], starts[k, 1], starts[k, 2]
-            qx, qy, qz = ends[k, 0], ends[k, 1], ends[k, 2]
-            for t in range(triangles.shape[0]):
-                a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-                if segment_misses_triangle_box(x, a, b, c, px, py, pz, qx, qy, qz):
-                    continue
-                if not segment_crosses_triangle(px, py, pz, qx - px, qy - py, qz - pz, x, a, b, c)[0]:
-                    continue
-                if segment_crosses_triangle(px, py, pz, qx - px, qy - py, qz - pz, x_kept, a, b, c)[0]:
-                    continue  # the body's handling left it crossed: not the layers' doing
-                # back by the least of BACK_STEPS equal steps that clears the bone (all the way clears it): a
-                # corner put all the way back while its neighbours stay pushed stretches their springs
-                for j in range(3):
-                    for k3 in range(3):
-                        saved[j, k3] = x[triangles[t, j], k3]
-                for step in range(1, BACK_STEPS + 1):
-                    fraction = step / BACK_STEPS
-                    for j in range(3):
-                        i = triangles[t, j]
-                        for k3 in range(3):
-                            x[i, k3] = saved[j, k3] + fraction * (x_kept[i, k3] - saved[j, k3])
-                    if not segment_crosses_triangle(px, py, pz, qx - px, qy - py, qz - pz, x, a, b, c)[0]:
-                        break
-                for j in range(3):
-                    i = triangles[t, j]
-                    if x[i, 0] != saved[j, 0] or x[i, 1] != saved[j, 1] or x[i, 2] != saved[j, 2]:
-                        v[i, :] = v_kept[i, :]
-                        moved += 1
-        restored += moved
-        if moved == 0:
-            break
-    return restored
+@njit(cache=True, inline="always")
+def _clear_skewer(x, v, pushed, movable, p0, p1, s_mid, y, triangles, found, count, thickness):
+    """An outer edge (p0, p1) with both ends outside that runs through the inner surface where no normal shows
+    a way out (through a whole trouser leg, in at one side and out at the other, or through both sides of a
+    fold; its chord's middle at parameter ``s_mid``) moves out sideways, whole: the inner garment seen along the
+    edge (the corners of the candidate triangles ``found[:count]`` that reach across the edge's span, as offsets
+    from the edge's line) is a band, and the edge goes, of ``SKEWER_DIRECTIONS`` directions across it, the way
+    with the least of it, ``thickness`` beyond it, when that is nearer than ``SKEWER_M`` and the edge's length
+    (farther, the band has no near side: the pinch between two legs). Both ends must be free (one end moved
+    alone would turn the edge about the other). Returns the pushes made."""
+    if not (movable[p0] and movable[p1]):
+        return 0
+    dx, dy, dz = x[p1, 0] - x[p0, 0], x[p1, 1] - x[p0, 1], x[p1, 2] - x[p0, 2]
+    length = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if length < 1e-9:
+        return 0
+    dx, dy, dz = dx / length, dy / length, dz / length
+    # two unit directions across the edge: e1 from the axis the edge is least along, e2 = d x e1
+    if abs(dx) <= abs(dy) and abs(dx) <= abs(dz):
+        ax, ay, az = 1.0, 0.0, 0.0
+    elif abs(dy) <= abs(dz):
+        ax, ay, az = 0.0, 1.0, 0.0
+    else:
+        ax, ay, az = 0.0, 0.0, 1.0
+    along = ax * dx + ay * dy + az * dz
+    e1x, e1y, e1z = ax - along * dx, ay - along * dy, az - along * dz
+    norm = math.sqrt(e1x * e1x + e1y * e1y + e1z * e1z)
+    e1x, e1y, e1z = e1x / norm, e1y / norm, e1z / norm
+    e2x, e2y, e2z = dy * e1z - dz * e1y, dz * e1x - dx * e1z, dx * e1y - dy * e1x
+    mx = x[p0, 0] + s_mid * length * dx
+    my = x[p0, 1] + s_mid * length * dy
+    mz = x[p0, 2] + s_mid * length * dz
+    reach = min(SKEWER_M, length)
+    support = np.zeros(SKEWER_DIRECTIONS)  # (K,) m: how far the band reaches each way from the edge's line
+    for m in range(count):
+        t = found[m]
+        lo_s, hi_s = np.inf, -np.inf
+        for j in range(3):
+            q = triangles[t, j]
+            sq = (y[q, 0] - x[p0, 0]) * dx + (y[q, 1] - x[p0, 1]) * dy + (y[q, 2] - x[p0, 2]) * dz
+            lo_s, hi_s = min(lo_s, sq), max(hi_s, sq)
+        if hi_s < 0.0 or lo_s > length:
+            continue  # beside the edge's span: not in its way
+        for j in range(3):
+            q = triangles[t, j]
+            wx, wy, wz = y[q, 0] - mx, y[q, 1] - my, y[q, 2] - mz
+            c1, c2 = wx * e1x + wy * e1y + wz * e1z, wx * e2x + wy * e2y + wz * e2z
+            for k in range(SKEWER_DIRECTIONS):
+                angle = 2.0 * math.pi * k / SKEWER_DIRECTIONS
+                support[k] = max(support[k], c1 * math.cos(angle) + c2 * math.sin(angle))
+    best = int(np.argmin(support))
+    distance = support[best] + thickness
+    if distance >= reach:
+        return 0
+    angle = 2.0 * math.pi * best / SKEWER_DIRECTIONS
+    ux = math.cos(angle) * e1x + math.sin(angle) * e2x
+    uy = math.cos(angle) * e1y + math.sin(angle) * e2y
+    uz = math.cos(angle) * e1z + math.sin(angle) * e2z
+    _push(x, v, pushed, p0, ux, uy, uz, distance)
+    _push(x, v, pushed, p1, ux, uy, uz, distance)
+    return 1
 
 
 class InnerSurface:
@@ -562,22 +439,3 @@ class InnerSurface:
         return int(count_edges_through(np.ascontiguousarray(x, dtype=np.float64),
                                        np.ascontiguousarray(edges, dtype=np.int64), self.positions, self.triangles,
                                        self.origin, self.dims, self.cell, self.starts, self.entries))
-
-
-def carried_like(mesh: GarmentMesh, inner_meshes: Sequence[GarmentMesh]) -> GarmentMesh:
-    """``mesh`` with an attachment that lies on an inner garment's attachment of the same role (a skirt's
-    waistband on the trousers', every vertex within ``SAME_BAND_M`` of it) skinned as that one is: two bands
-    carried differently would part, and the outer one, whose points cannot be pushed, would pass through."""
-    shared = dict(mesh.shared_attachments)
-    for role, ids in mesh.attachments.items():
-        for inner in inner_meshes:
-            if role not in inner.attachments:
-                continue
-            band = inner.vertices[inner.attachments[role]]
-            gaps = np.linalg.norm(mesh.vertices[ids][:, None, :] - band[None, :, :], axis=2).min(axis=1)
-            if np.all(gaps <= SAME_BAND_M):
-                shared.pop(role, None)
-                if role in inner.shared_attachments:
-                    shared[role] = inner.shared_attachments[role]
-                break
-    return dataclasses.replace(mesh, shared_attachments=shared)
