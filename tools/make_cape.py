@@ -40,7 +40,7 @@ placement: {{mode: fit, anchor: neck, reference_height: {height:.3f}}}  # the co
 attach:
   - role: chest
     vertices: {{loop: top}}              # the collar rides on the chest,
-    falloff: 0.04                      # and the yoke within 4 cm of it (off the trunk's top rim)
+    falloff: 0.04                      # and the collar's lower ring within 4 cm of it
 material: cotton_shirting
 layer: 1
 detailed_body: true                    # neck and forearm volumes under the cape
