@@ -430,6 +430,17 @@ def test_the_example_cape_hangs_on_a_real_walk_without_sinking_into_the_body():
     assert row["bones_frames"] <= 0.1 * row["frames"], row  # arms under an open cape: see the README
 
 
+def test_the_example_cape_keeps_its_corners_off_the_swinging_upper_arms():
+    """cmu_131, 3 s at 1x: the cape meets every target, stretch (d) included. Cut 120 degrees wide, its top
+    corners lay over the upper arms, which pinched its sides against the chest: structural p99 1.23, max 3.04
+    (README, "Your own garments")."""
+    from garment_sim_ros.commands.evaluate import Run, evaluate_run
+
+    row = evaluate_run(Run(str(ROOT / "test" / "data" / "cmu_131_01_walk_mjstyle.bvh"), "cape", 1.0, 60.0, 3.0))
+    assert row["frames"] == 180
+    assert {k: ok for k, ok in row["targets"].items() if ok is False} == {}, row
+
+
 # ----------------------------------------------------------------------------- the node
 def test_the_node_wears_a_spec_file_and_dresses_again_when_it_is_saved(graph, tmp_path):
     shutil.copy(CAPE.with_suffix(".obj"), tmp_path / "cape.obj")

@@ -255,28 +255,26 @@ def test_evaluate_takes_outfits_joined_by_plus():
         garments("pants+trousers")
 
 
-# Measured (README, "Outfits"): frames with an outer edge through an inner triangle in the 1 s runs at 1x,
-# 60 fps (without the layers: 60, 60 and 28 of 60). The bound is the measurement, not zero: a long skirt's
-# 10-18 cm edges can straddle a trouser leg, and a point the layers would push into a volume stays put.
-# The last column: the outfit meets every target of the real-motion issue, stretch (d) included. The long
-# skirt over the trousers: 6 frames with its walking vent (docs/real_motion.md, the walking vent), 1 before it,
-# none since its edges run through a whole trouser leg move out sideways (``layers._clear_skewer``).
-OUTFITS = [("xia_strutting_01_000", "pants+long_skirt", 0, True),
-           ("xia_strutting_01_000", "pants+one_piece", 0, True),
-           ("xia_strutting_01_000", "short_skirt+cape", 0, False)]
+# Measured (README, "Outfits"), 1 s runs at 1x, 60 fps: no frame with an outer edge through an inner triangle
+# (without the layers: 60, 60 and 28 of 60), and every target of the real-motion issue met, stretch (d) included.
+# The long skirt over the trousers: 6 frames with its walking vent (docs/real_motion.md, the walking vent), 1 before
+# it, none since its edges run through a whole trouser leg move out sideways (``layers._clear_skewer``). The cape's
+# stretch: structural p99 1.09 when its rows were cut finer under the collar (5 mm there, 11 cm at the hem: the
+# panel's sag gathered in the short springs), 1.02 with the rows evenly spaced (tools/make_cape.py).
+OUTFITS = [("xia_strutting_01_000", "pants+long_skirt"),
+           ("xia_strutting_01_000", "pants+one_piece"),
+           ("xia_strutting_01_000", "short_skirt+cape")]
 
 
-@pytest.mark.parametrize("clip, outfit, crossing_frames, every_target", OUTFITS)
-def test_an_outer_garment_stays_outside_the_inner_one_on_a_real_clip(clip, outfit, crossing_frames, every_target):
+@pytest.mark.parametrize("clip, outfit", OUTFITS)
+def test_an_outer_garment_stays_outside_the_inner_one_on_a_real_clip(clip, outfit):
     from garment_sim_ros.commands.evaluate import Run, evaluate_run
 
     row = evaluate_run(Run(str(DATA / f"{clip}.bvh"), outfit, 1.0, 60.0, 1.0))
     assert row["frames"] == 60 and [layer["garment"] for layer in row["layers"]] == outfit.split("+")
-    assert row["layer_crossing_frames"] <= crossing_frames
-    assert row["targets"]["f"] == (row["layer_crossing_frames"] == 0)
-    # both layers meet the body targets of the real-motion issue; stretch (d) where the last column says so
-    # (the cape's is not met yet: README)
-    failed = {k: ok for k, ok in row["targets"].items() if (every_target or k not in ("d", "f")) and ok is False}
+    assert row["layer_crossing_frames"] == 0
+    # both layers meet every target of the real-motion issue, the layers' (f) and stretch (d) included
+    failed = {k: ok for k, ok in row["targets"].items() if ok is False}
     assert failed == {}, row["layers"]
 
 
