@@ -127,6 +127,15 @@ PARAMETERS: tuple[Param, ...] = (
           "the node dresses again once the next /tf sample confirms it (else the sample is an outlier)"),
     # collision (memo §6)
     Param("friction", 0.2, "1", 0.0, 100.0, "k_f of the modified Coulomb law (memo Eq. 6-2)"),
+    Param("contact_friction", 0.0, "1", 0.0, 1.0,
+          "position-level friction (Macklin et al. 2014): a point pushed out of a volume has its slide along the "
+          "surface over the substep undone up to this x the depth it was pushed out by (all of it below: "
+          "static); works where the velocity-level friction above cannot reach (contacts handled during the "
+          "length correction); 0: off"),
+    Param("contact_margin", 0.0, "m", 0.0, 0.05,
+          "a volume stays in a point's contact cache while the point is within this of the volume's bounding "
+          "sphere, so that the contact handling during the length correction keeps a point resting just outside "
+          "out of it (a sphere's bounding sphere is its surface); 0: evicted once the broad phase rejects it"),
     Param("collision_epsilon", 0.003, "m", 0.0, 0.1, "points are put this far outside a volume's surface"),
     Param("contact_time_fraction", 0.5, "1", 0.0, 1.0,
           "c_time of memo Eq. 6-8: share of the step left after a hit that the point moves with the volume"),
@@ -187,6 +196,8 @@ class SolverParams:
     angular_inertia_scale: float
     teleport_distance: float
     friction: float
+    contact_friction: float
+    contact_margin: float
     collision_epsilon: float
     contact_time_fraction: float
     dynamic_switch_ratio: float

@@ -134,3 +134,23 @@ def test_drape_cloth_rests_on_the_sphere_top_with_the_corners_hanging():
     assert scene.penetration() < 1e-3
     # the total mass is 0.2 kg whatever n
     assert scene.solver.constants.mass.sum() == pytest.approx(drape.CLOTH_MASS_KG)
+
+
+@pytest.mark.parametrize("contact_friction", [drape.CONTACT_FRICTION, 0.0])
+def test_drape_position_friction_keeps_the_cloth_on_the_moving_sphere(contact_friction):
+    """The whole scene (the sphere out and back twice at 1 m/s, then still) at n = 12: with the scene's
+    position-level friction the cloth ends on the sphere's top, unstretched and outside it; without it
+    (the velocity-level friction alone, as before issue 15's fix) it slides off and falls."""
+    n = 12
+    scene = drape.DrapeScene(n, drape.drape_params(n).replace(contact_friction=contact_friction))
+    worst_stretch = worst_depth = 0.0
+    for _ in range(drape.WARMUP_FRAMES + drape.DEFAULT_FRAMES):
+        scene.advance()
+        worst_stretch = max(worst_stretch, scene.stretch())
+        worst_depth = max(worst_depth, scene.penetration())
+    top = float(np.max(scene.positions[:, 2]))
+    if contact_friction > 0.0:
+        assert top == pytest.approx(drape.SPHERE_RADIUS_M, abs=0.01)
+        assert worst_stretch <= 1.10 and worst_depth < 1e-3
+    else:
+        assert top < 0.0

@@ -152,6 +152,56 @@ def test_response_is_relative_to_a_translating_surface():
     np.testing.assert_allclose(v[0], [2.0, 0.3, 0.0], atol=1e-12)
 
 
+def position_friction(start, end, centre, r, grip):
+    """Position-level friction (``contact_friction``) by hand for a static hit on a still sphere, eps 0:
+    the end point goes radially onto the surface (depth d), then its slide t from the start along the
+    tangent plane there is undone up to ``grip * d``."""
+    u = (end - centre) / np.linalg.norm(end - centre)
+    contact = centre + r * u
+    depth = r - np.linalg.norm(end - centre)
+    slide = (contact - start) - np.dot(contact - start, u) * u
+    return contact - min(1.0, grip * depth / np.linalg.norm(slide)) * slide
+
+
+@pytest.mark.parametrize("grip, sticks", [(0.6, True),  # |t| ~ 1 mm < 0.6 x 2 mm
+                                          (0.2, False)])  # kinetic: 0.4 mm of the slide undone
+def test_position_friction_undoes_the_slide_up_to_grip_times_depth(grip, sticks):
+    c = make_collider([sphere(0.1)], 1, [0, 0, 0], collision_mode="static", collision_epsilon=0.0, friction=0.0,
+                      contact_friction=grip)
+    start, end = np.array([0.0, 0.0, 0.1]), np.array([0.001, 0.0, 0.098])
+    x, v = handle(c, start, end, v=[0.1, 0.0, -0.2])
+    np.testing.assert_allclose(x[0], position_friction(start, end, np.zeros(3), 0.1, grip), atol=1e-12)
+    assert np.linalg.norm(x[0]) == pytest.approx(0.1, abs=1e-5)  # on the surface (its tangent plane)
+    normal = x[0] / np.linalg.norm(x[0])
+    tangential = v[0] - np.dot(v[0], normal) * normal
+    if sticks:  # static: back where it started along the surface, no sliding velocity left
+        np.testing.assert_allclose(x[0], start, atol=1e-5)
+        np.testing.assert_allclose(tangential, 0.0, atol=1e-12)
+    else:
+        assert 0.0 < np.linalg.norm(tangential) < 0.1
+
+
+@pytest.mark.parametrize("grip", [0.0, 0.5])
+def test_position_friction_holds_a_point_on_a_slope(grip):
+    """A point resting 20 deg down a still sphere's side, gravity on, 1 s of 1 ms steps (the solver's order:
+    step, handle, velocity from the positions): tan 20 deg = 0.36 < 0.5 holds it; without the position
+    friction, and without the velocity-level one (0 here), it slides off."""
+    r, angle, h = 0.1, math.radians(20.0), 0.001
+    c = make_collider([sphere(r)], 1, [0, 0, 0], collision_epsilon=0.0, friction=0.0, contact_friction=grip)
+    x = r * np.array([[math.sin(angle), 0.0, math.cos(angle)]])
+    v, contacts = np.zeros((1, 3)), c.new_contacts()
+    for _ in range(1000):
+        x_start = x.copy()
+        x = x + h * (v + h * np.array([0.0, 0.0, -9.81]))
+        c.handle_all(x_start, x, np.zeros((1, 3)), np.ones(1), h, contacts)
+        v = (x - x_start) / h
+    moved = np.linalg.norm(x[0] - r * np.array([math.sin(angle), 0.0, math.cos(angle)]))
+    if grip > 0.0:
+        assert moved < 1e-4
+    else:
+        assert moved > 0.05
+
+
 # ----------------------------------------------------------------------------- dynamic handling
 
 def exact_translation_hit(p0, u, c0, V, R, radii, h):
@@ -284,6 +334,22 @@ def test_cache_keeps_recent_hits_first_and_evicts_far_volumes():
     np.testing.assert_array_equal(contacts[0], [1, 0])
     handle(c, [2.0, 0, 0], [2.0, 0, 0], contacts=contacts)  # far from both: evicted
     np.testing.assert_array_equal(contacts[0], [-1, -1])
+
+
+@pytest.mark.parametrize("margin, kept", [(0.0, False), (0.005, True)])
+def test_contact_margin_keeps_a_resting_point_s_volume_cached(margin, kept):
+    """A point put on a sphere, then resting 3 mm outside it: the broad phase evicts the sphere from its cache
+    (so the correction's contact handling would not see it), unless within ``contact_margin``."""
+    c = make_collider([sphere(0.1)], 1, [0, 0, 0], collision_mode="static", collision_epsilon=0.003,
+                      contact_margin=margin)
+    contacts = c.new_contacts()
+    handle(c, [0.0, 0, 0.099], [0.0, 0, 0.099], contacts=contacts)
+    np.testing.assert_array_equal(contacts[0], [0])
+    x, _ = handle(c, [0.0, 0, 0.103], [0.0, 0, 0.103], contacts=contacts)
+    np.testing.assert_array_equal(x[0], [0.0, 0, 0.103])  # outside: untouched either way
+    np.testing.assert_array_equal(contacts[0], [0] if kept else [-1])
+    handle(c, [0.0, 0, 0.2], [0.0, 0, 0.2], contacts=contacts)  # far beyond the margin: evicted
+    np.testing.assert_array_equal(contacts[0], [-1])
 
 
 def random_scene(seed, n_points=400):

@@ -78,6 +78,8 @@ class Collider:
     # ------------------------------------------------------------------ set-up per run/frame/substep
     def set_params(self, params: SolverParams) -> None:
         self._friction = float(params.friction)
+        self._grip = float(params.contact_friction)
+        self._margin = float(params.contact_margin)
         self._eps = float(params.collision_epsilon)
         self._pinch_depth = float(params.pinch_depth)
         self._edge_pinch_depth = float(params.edge_pinch_depth)
@@ -196,15 +198,16 @@ class Collider:
     def _points(self, x_start, x, v, inv_mass, h: float, contacts) -> None:
         kernel = kernels.handle_all_parallel if self.parallel else kernels.handle_all
         arrays = self._packed if self.use_broad_phase else self._packed_unbounded
-        n_static, n_dynamic = kernel(arrays, x_start, x, v, inv_mass, h, self._eps, self._friction, self._c_time,
-                                     self._switch_ratio, self._mode, contacts, self._scratch)
+        n_static, n_dynamic = kernel(arrays, x_start, x, v, inv_mass, h, self._eps, self._friction, self._grip,
+                                     self._c_time, self._switch_ratio, self._mode, self._margin, contacts,
+                                     self._scratch)
         self.static_hits += int(n_static)
         self.dynamic_hits += int(n_dynamic)
 
     def _contacts(self, x_start, x, v, inv_mass, h: float, contacts, mode: int) -> None:
         kernel = kernels.handle_contacts_parallel if self.parallel else kernels.handle_contacts
         self.static_hits += int(kernel(self._packed, x_start, x, v, inv_mass, h, self._eps, self._friction,
-                                       self._switch_ratio, mode, contacts))
+                                       self._grip, self._switch_ratio, mode, contacts))
 
     def _edges(self, x_start, x, inv_mass, edges, rest_lengths) -> int:
         return int(kernels.handle_edges(self._packed, x_start, x, inv_mass, edges, rest_lengths,

@@ -119,6 +119,14 @@ def _needs_handling(vol, xs, x, i, cache):
 
 
 @kernel
+def _near_bounding_sphere(vol, v, x, i, margin):
+    """Point i is within ``margin`` of volume v's bounding sphere (end pose), or inside it."""
+    pos = vol.pos1
+    d2 = (x[i, 0] - pos[v, 0]) ** 2 + (x[i, 1] - pos[v, 1]) ** 2 + (x[i, 2] - pos[v, 2]) ** 2
+    return d2 <= (vol.bounding_radii[v] + margin) ** 2
+
+
+@kernel
 def _record(scratch, i, start, count, capacity, v):
     """Append v to the list scratch[i, start:start + count] unless it is there or full; new count."""
     for k in range(count):
@@ -131,7 +139,8 @@ def _record(scratch, i, start, count, capacity, v):
 
 
 @kernel
-def _handle_point_all(vol, xs, x, vel, i, h, eps, friction, c_time, switch_ratio, mode, cache, scratch):
+def _handle_point_all(vol, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, mode, margin, cache,
+                      scratch):
     """Point i against every volume, cached volumes first (temporal coherence), then rebuilds
     its cache row: this call's hits first, then the older entries the point is still near
     (the broad phase evicts the others). ``scratch[i]`` (length 2 C) holds the hits in its
@@ -147,10 +156,11 @@ def _handle_point_all(vol, xs, x, vel, i, h, eps, friction, c_time, switch_ratio
         if v < 0:
             continue
         # A cached volume the point left is evicted by the bounding-sphere test, which decides what
-        # handle_contacts sees next.
-        if out_of_reach(vol, v, x, i) or broad_phase_rejects(vol, v, xs, x, i):
+        # handle_contacts sees next; within ``margin`` of that sphere it stays (see ``_handle_all``).
+        if (out_of_reach(vol, v, x, i) or broad_phase_rejects(vol, v, xs, x, i)) and not (
+                margin > 0.0 and _near_bounding_sphere(vol, v, x, i, margin)):
             continue
-        code = handle_pair(vol, v, xs, x, vel, i, h, eps, friction, c_time, switch_ratio, mode)[0]
+        code = handle_pair(vol, v, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, mode)[0]
         if code == NO_HIT:
             n_kept = _record(scratch, i, cache_size, n_kept, cache_size, v)
             continue
@@ -161,7 +171,7 @@ def _handle_point_all(vol, xs, x, vel, i, h, eps, friction, c_time, switch_ratio
         n_hits = _record(scratch, i, 0, n_hits, cache_size, v)
     v = _next_candidate(vol, xs, x, i, cache, 0)
     while v < n_volumes:
-        code = handle_pair(vol, v, xs, x, vel, i, h, eps, friction, c_time, switch_ratio, mode)[0]
+        code = handle_pair(vol, v, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, mode)[0]
         if code != NO_HIT:
             if code == STATIC_HIT:
                 n_static += 1
@@ -177,7 +187,7 @@ def _handle_point_all(vol, xs, x, vel, i, h, eps, friction, c_time, switch_ratio
         for v in range(n_volumes):
             if outside_bounding_sphere(vol, v, x, i):
                 continue
-            code = handle_pair(vol, v, xs, x, vel, i, h, eps, friction, c_time, switch_ratio, MODE_STATIC)[0]
+            code = handle_pair(vol, v, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, MODE_STATIC)[0]
             if code != NO_HIT:
                 moved = True
                 n_static += 1
@@ -201,17 +211,20 @@ def _handle_point_all(vol, xs, x, vel, i, h, eps, friction, c_time, switch_ratio
     return n_static, n_dynamic
 
 
-def _handle_all(arrays, xs, x, vel, inv_mass, h, eps, friction, c_time, switch_ratio, mode, cache, scratch):
+def _handle_all(arrays, xs, x, vel, inv_mass, h, eps, friction, grip, c_time, switch_ratio, mode, margin, cache,
+                scratch):
     """Memo §3 step 5 over all points (the broad phase's reach first; with infinite bounding radii it is
-    infinite). Returns (static hits, dynamic hits)."""
+    infinite). ``margin`` > 0 (``contact_margin``, m): a cached volume stays cached while the point is within
+    that of its bounding sphere, so that the contact handling during the length correction
+    (``handle_contacts``) keeps a point resting just outside out of it. Returns (static hits, dynamic hits)."""
     vol = VolumeArrays(*arrays)
     reach_radii(vol, xs, x, inv_mass)
     n_static = 0
     n_dynamic = 0
     for i in prange(x.shape[0]):  # the points are independent here: each touches its own rows only
         if inv_mass[i] != 0.0 and _needs_handling(vol, xs, x, i, cache):
-            s, d = _handle_point_all(vol, xs, x, vel, i, h, eps, friction, c_time, switch_ratio, mode, cache,
-                                     scratch)
+            s, d = _handle_point_all(vol, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, mode, margin,
+                                     cache, scratch)
             n_static += s
             n_dynamic += d
     return n_static, n_dynamic
@@ -221,7 +234,7 @@ handle_all, handle_all_parallel = serial_and_parallel(_handle_all)
 
 
 @kernel
-def _contacts_point(vol, xs, x, vel, i, h, eps, friction, switch_ratio, mode, cache):
+def _contacts_point(vol, xs, x, vel, i, h, eps, friction, grip, switch_ratio, mode, cache):
     """Point i against its cached volumes (``handle_contacts``); the number of hits."""
     pos1, bounding_radii = vol.pos1, vol.bounding_radii
     n_moved = 0
@@ -232,13 +245,13 @@ def _contacts_point(vol, xs, x, vel, i, h, eps, friction, switch_ratio, mode, ca
         b = math.sqrt((x[i, 0] - pos1[v, 0]) ** 2 + (x[i, 1] - pos1[v, 1]) ** 2 + (x[i, 2] - pos1[v, 2]) ** 2)
         if b > bounding_radii[v]:
             continue
-        code = handle_pair(vol, v, xs, x, vel, i, h, eps, friction, 0.0, switch_ratio, mode)[0]
+        code = handle_pair(vol, v, xs, x, vel, i, h, eps, friction, grip, 0.0, switch_ratio, mode)[0]
         if code != NO_HIT:
             n_moved += 1
     return n_moved
 
 
-def _handle_contacts(arrays, xs, x, vel, inv_mass, h, eps, friction, switch_ratio, mode, cache):
+def _handle_contacts(arrays, xs, x, vel, inv_mass, h, eps, friction, grip, switch_ratio, mode, cache):
     """Memo §3 step 4: the cached (point, volume) pairs at the end poses, during the length correction.
 
     ``mode`` as in ``handle_pair``, from the substep's start positions ``xs``. physics: the correction
@@ -251,7 +264,7 @@ def _handle_contacts(arrays, xs, x, vel, inv_mass, h, eps, friction, switch_rati
     n_moved = 0
     for i in prange(x.shape[0]):  # each point only touches its own row
         if inv_mass[i] != 0.0:
-            n_moved += _contacts_point(vol, xs, x, vel, i, h, eps, friction, switch_ratio, mode, cache)
+            n_moved += _contacts_point(vol, xs, x, vel, i, h, eps, friction, grip, switch_ratio, mode, cache)
     return n_moved
 
 

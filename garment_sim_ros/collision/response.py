@@ -86,8 +86,9 @@ _ON_PLANE = 1e-9  # m: a static projection this near a contact plane went onto i
 
 
 @kernel
-def handle_pair(vol, v, xs, x, vel, i, h, eps, friction, c_time, switch_ratio, mode):
-    """Handle point ``i`` against volume ``v``; ``x``, ``vel`` updated in place.
+def handle_pair(vol, v, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, mode):
+    """Handle point ``i`` against volume ``v``; ``x``, ``vel`` updated in place; ``grip`` the position-level
+    friction coefficient (``contact_friction``, see ``_respond``).
 
     ``xs[i]`` is the point at the substep start, ``x[i]`` at its end. Returns
     ``(code, alpha, lx, ly, lz)``: NO_HIT / STATIC_HIT / DYNAMIC_HIT, the collision time
@@ -110,7 +111,8 @@ def handle_pair(vol, v, xs, x, vel, i, h, eps, friction, c_time, switch_ratio, m
             if alpha >= 0.0:
                 sx, sy, sz, nx, ny, nz = surface_at(kind, radii, planes, v, face, ax + alpha * (bx - ax),
                                                     ay + alpha * (by - ay), az + alpha * (bz - az))
-                _respond(vol, v, x, vel, i, sx, sy, sz, nx, ny, nz, eps, friction, h, c_time * (1.0 - alpha) * h)
+                _respond(vol, v, xs, x, vel, i, sx, sy, sz, nx, ny, nz, eps, friction, grip, h,
+                         c_time * (1.0 - alpha) * h)
                 return DYNAMIC_HIT, alpha, sx, sy, sz
     inside, sx, sy, sz, nx, ny, nz = static_projection(kind, radii, cuts, planes, v, bx, by, bz)
     if not inside:
@@ -126,7 +128,7 @@ def handle_pair(vol, v, xs, x, vel, i, h, eps, friction, c_time, switch_ratio, m
             sx, sy, sz, nx, ny, nz = bx, by, cuts[v, 0], 0.0, 0.0, -1.0
         elif az > cuts[v, 1] and cuts[v, 1] < radii[v, 2]:
             sx, sy, sz, nx, ny, nz = bx, by, cuts[v, 1], 0.0, 0.0, 1.0
-    _respond(vol, v, x, vel, i, sx, sy, sz, nx, ny, nz, eps, friction, h, 0.0)
+    _respond(vol, v, xs, x, vel, i, sx, sy, sz, nx, ny, nz, eps, friction, grip, h, 0.0)
     return STATIC_HIT, 1.0, sx, sy, sz
 
 
@@ -146,18 +148,43 @@ def depth_elsewhere(vol, v, px, py, pz):
 
 
 @kernel
-def _respond(vol, v, x, vel, i, sx, sy, sz, nx, ny, nz, eps, friction, h, slide_time):
+def _respond(vol, v, xs, x, vel, i, sx, sy, sz, nx, ny, nz, eps, friction, grip, h, slide_time):
     """Put point i at the local surface point s + eps n (end pose), respond its velocity, and
     slide it for ``slide_time`` with the new velocity relative to the surface (Eq. 6-8).
 
     physics: eps is a distance along the normal (not the memo's eps per coordinate); the slide
     is relative to the surface, since sitting at the end pose already carries the point along;
     the surface velocity is the one of the volume's material point at the contact.
+
+    ``grip`` > 0: position-level friction (Macklin et al. 2014, "Unified particle physics", §6.1), as the
+    velocity-level law above cannot be: a point the length correction's contact handling put back out is
+    outside when the full handling responds velocities, and its velocity is then the corrected positions'
+    (Eq. 5-2), so the Coulomb response never reaches it (the drape's sheet slid off the sphere). The point's
+    slide relative to the surface over the substep -- from where it started (``xs[i]``, start pose) to the
+    contact point (end pose), both in the volume's frame -- is undone up to ``grip`` times the depth it was
+    pushed out by along the normal: all of it below that (static), that much of it above (kinetic); the
+    tangential velocity relative to the surface keeps the same share.
     """
     cx, cy, cz = sx + eps * nx, sy + eps * ny, sz + eps * nz
+    kept = 1.0  # share of the tangential slide (and relative tangential velocity) the position friction leaves
+    if grip > 0.0:
+        bx, by, bz = to_local(vol.pos1, vol.rot1, v, x[i, 0], x[i, 1], x[i, 2])
+        depth = (cx - bx) * nx + (cy - by) * ny + (cz - bz) * nz
+        ax, ay, az = to_local(vol.pos0, vol.rot0, v, xs[i, 0], xs[i, 1], xs[i, 2])
+        dx, dy, dz = cx - ax, cy - ay, cz - az
+        along = dx * nx + dy * ny + dz * nz
+        tx, ty, tz = dx - along * nx, dy - along * ny, dz - along * nz
+        slide = math.sqrt(tx * tx + ty * ty + tz * tz)
+        if depth > 0.0 and slide > 0.0:
+            kept = max(0.0, 1.0 - grip * depth / slide)
+            cx, cy, cz = cx - (1.0 - kept) * tx, cy - (1.0 - kept) * ty, cz - (1.0 - kept) * tz
     svx, svy, svz = surface_velocity(vol, v, cx, cy, cz, h)
     wnx, wny, wnz = rotate(vol.rot1, v, nx, ny, nz)
     rx, ry, rz = respond_velocity(vel[i, 0], vel[i, 1], vel[i, 2], svx, svy, svz, wnx, wny, wnz, friction)
+    if kept < 1.0:
+        rn = rx * wnx + ry * wny + rz * wnz
+        rx, ry, rz = (rn * wnx + kept * (rx - rn * wnx), rn * wny + kept * (ry - rn * wny),
+                      rn * wnz + kept * (rz - rn * wnz))
     px, py, pz = to_world(vol.pos1, vol.rot1, v, cx, cy, cz)
     x[i, 0] = px + slide_time * rx
     x[i, 1] = py + slide_time * ry
