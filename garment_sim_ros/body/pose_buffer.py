@@ -225,6 +225,14 @@ class PoseBuffer:
         elapsed = stamps - stamps[previous]
         jumped = (is_jump(distance, elapsed, self.jump_distance_m)
                   | rotation_jumped(rotation_angle(units, units[previous]), elapsed, self.max_joint_speed)).tolist()
+        # each known child's first row against its newest sample, in one call
+        known = [(self._dynamic[child], index[0]) for child, index in rows.items() if child in self._dynamic]
+        first = [i for _, i in known]
+        newest = np.array([series.newest_rotation for series, _ in known]).reshape(-1, 4)
+        turned_away = rotation_jumped(rotation_angle(units[first], newest),
+                                      stamps[first] - np.array([series.newest for series, _ in known]),
+                                      self.max_joint_speed)
+        first_turned = dict(zip((children[i] for i in first), np.atleast_1d(turned_away).tolist()))
         stored, refusals, slow = 0, [], []
         held = self._jumps.held.keys() | self._glitches.held.keys()  # children with an unsettled jump
         for child, index in rows.items():
@@ -238,8 +246,7 @@ class PoseBuffer:
             if (not all(good_list[i] and parents[i] == parent and not jumped[i] for i in index)
                     or block[0] <= series.newest or any(b <= a for a, b in zip(block, block[1:]))
                     or math.dist(translations[index[0]], series.translations[-1]) > self.jump_distance_m
-                    or rotation_jumped(rotation_angle(units[index[0]], series.rotations[-1]),
-                                       block[0] - series.newest, self.max_joint_speed)):
+                    or first_turned[child]):
                 slow.extend(index)  # refused, out of order, duplicated or jumping: one by one, counted there
                 continue
             for i, stamp in zip(index, block):
