@@ -7,7 +7,7 @@ at 120 Hz; the basketball clip's left thumb flips back and forth. The fastest re
 the shared clips is ~2900 deg/s (a CMU toe at 120 Hz, 24 deg in a frame); human gaits stay under
 1200 deg/s, a jump's tuck is ~900 deg/s (test_fast_swings.py).
 
-One rule for clips (``filter_clip_glitches``, on load) and /tf (``PoseBuffer``), per joint, on its
+One rule for clips (``filter_glitches``, from ``body.bvh.load_bvh``) and /tf (``PoseBuffer``), per joint, on its
 local rotation:
 
 - a sample jumped (``rotation_jumped``) when it is more than ``MIN_GLITCH_ANGLE_DEG`` and faster than
@@ -120,7 +120,9 @@ class GlitchReport:
         joints = sorted(self.counts, key=lambda j: (-self.counts[j], j))
         parts = [f"{joint} x{self.counts[joint]} (frames {frame_runs(self.frames[joint])})" for joint in joints[:limit]]
         more = f"; {len(joints) - limit} more joints" if len(joints) > limit else ""
-        return f"{self.total} joint glitches replaced: " + "; ".join(parts) + more
+        kept = sum(self.fast_moves.values())
+        stayed = f" ({kept} jumps that stayed longer than max_glitch_time kept)" if kept else ""
+        return f"{self.total} joint glitches replaced{stayed}: " + "; ".join(parts) + more
 
     def as_dict(self) -> dict:
         return {"total": self.total, "counts": dict(sorted(self.counts.items())),
