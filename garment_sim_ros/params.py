@@ -125,6 +125,14 @@ PARAMETERS: tuple[Param, ...] = (
     Param("teleport_distance", 1.0, "m", 0.0, 1e6,
           "a root jump longer than this within one frame carries the garment along rigidly (no inertia); "
           "the node dresses again once the next /tf sample confirms it (else the sample is an outlier)"),
+    # skeleton input (body.glitches: clips on load, /tf in the node's pose buffer)
+    Param("max_joint_speed", 3000.0, "deg/s", 0.0, 1e6,
+          "a joint's local rotation turning faster than this (and by more than 30 deg) between two samples jumped: "
+          "held until it comes back (a glitch, replaced) or stays away max_glitch_time (real, kept); 0 turns the "
+          "joint glitch filter off"),
+    Param("max_glitch_time", 0.1, "s", 0.0, 10.0,
+          "a joint's jump that comes back within this is a glitch; one that stays longer is real motion (live, it "
+          "is used that much later)"),
     # collision (memo §6)
     Param("friction", 0.2, "1", 0.0, 100.0, "k_f of the modified Coulomb law (memo Eq. 6-2)"),
     Param("contact_friction", 0.0, "1", 0.0, 1.0,
@@ -195,6 +203,8 @@ class SolverParams:
     linear_inertia_scale: float
     angular_inertia_scale: float
     teleport_distance: float
+    max_joint_speed: float
+    max_glitch_time: float
     friction: float
     contact_friction: float
     contact_margin: float

@@ -248,7 +248,7 @@ def test_surface_depth_sees_a_sphere_bulging_between_cloth_points_that_are_all_o
 ROW_KEYS = {"clip", "garment", "speed", "fps", "frames", "bones_frames", "bones_max", "limb_tubes", "legs_off_frames",
             "deep_frames", "deep_share", "max_depth_mm", "pressed_mm", "surface_depth_mm", "structural_stretch_p99",
             "structural_stretch_max", "shear_stretch_p99", "shear_stretch_max", "guard_firings", "carried_frames",
-            "targets", "passed", "wall_s"}
+            "joint_glitches", "joint_glitches_text", "targets", "passed", "wall_s"}
 
 
 def test_evaluate_json_rows_and_summary_on_a_real_clip():
@@ -263,6 +263,7 @@ def test_evaluate_json_rows_and_summary_on_a_real_clip():
     for r in rows:
         assert set(r) == ROW_KEYS
         assert r["clip"] == "xia_old_13_000" and r["speed"] == 1.0
+        assert r["joint_glitches"] == 1 and "RightToeBase x1 (frames 5-9)" in r["joint_glitches_text"]  # its toe flip
         assert r["frames"] == round(0.2 * r["fps"])
         assert set(r["targets"]) == {"a", "b", "c", "d", "e", "f"} and r["targets"]["f"] is None  # one garment
         assert r["passed"] == all(v is not False for v in r["targets"].values())

@@ -392,7 +392,8 @@ def test_a_joint_missing_from_the_messages_holds_naming_it_and_resumes():
 
 
 def test_a_pose_without_heading_is_refused_as_degenerate_and_the_garments_hold():
-    loop, t = running_loop()
+    # the roll comes in one frame, which the joint glitch filter holds as a glitch (test_glitches.py): off here
+    loop, t = running_loop(max_joint_speed=0.0)
     rolled = np.array([math.sin(math.pi / 4), 0.0, 0.0, math.cos(math.pi / 4)])  # lying on its side: hips stacked
     held = [p.copy() for p in loop.character.world_positions()]
     for _ in range(3):

@@ -24,13 +24,15 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
+from ..params import DEFAULT_PARAMS
 from ..transforms import IDENTITY_QUAT, quat_from_axis_angle, quat_multiply, quat_rotate, quat_slerp
+from .glitches import GlitchReport, filter_glitches
 from .skeleton import Skeleton, SkeletonPose, forward_kinematics
 
 # File length units -> metres. CMU: the cgspeed conversions keep the ASF's unit of 1/0.45 inch.
@@ -78,6 +80,7 @@ class Clip:
     frame_time: float
     units_scale: float  # metres per file unit
     dropped_reference_frame: bool = False  # frame 0 of the file was a reference pose and is not here
+    glitches: GlitchReport = field(default_factory=GlitchReport)  # joint glitches replaced on load (file frames)
 
     @property
     def frames(self) -> int:
@@ -325,13 +328,17 @@ def _euler_quaternions(channels: list[str], values: np.ndarray) -> np.ndarray:
     return rotation
 
 
-def load_bvh(path: str | Path, units: str | float = "auto", keep_first_frame: bool = False) -> Clip:
+def load_bvh(path: str | Path, units: str | float = "auto", keep_first_frame: bool = False,
+             max_joint_speed: float = DEFAULT_PARAMS.max_joint_speed,
+             max_glitch_time: float = DEFAULT_PARAMS.max_glitch_time) -> Clip:
     """Read a BVH file into a ``Clip`` in REP-103 metres.
 
     ``units``: ``"auto"`` (from the rest pose's height), a name of ``UNIT_SCALES`` or metres per
     file unit. Frame 0 is dropped when it is a reference pose (``starts_with_reference_frame``: a
     T-pose the motion jumps away from, as in CMU 01_01 and the Character Creator exports;
-    ``Clip.dropped_reference_frame`` says so), unless ``keep_first_frame``.
+    ``Clip.dropped_reference_frame`` says so), unless ``keep_first_frame``. Then each joint's glitches
+    (``body.glitches``: ``max_joint_speed`` deg/s, 0 for none; ``max_glitch_time`` s) are replaced,
+    reported in ``Clip.glitches`` by file frame.
     """
     path = str(path)
     try:
@@ -373,7 +380,11 @@ def load_bvh(path: str | Path, units: str | float = "auto", keep_first_frame: bo
         frame_time=frame_time,
         units_scale=scale,
     )
-    return clip if keep_first_frame or not starts_with_reference_frame(clip) else clip.without_first_frame()
+    if not keep_first_frame and starts_with_reference_frame(clip):
+        clip = clip.without_first_frame()
+    rotations, glitches = filter_glitches(names, clip.rotations, frame_time, max_joint_speed, max_glitch_time,
+                                          first_frame=int(clip.dropped_reference_frame))
+    return replace(clip, rotations=rotations, glitches=glitches)
 
 
 # A first frame counts as a reference pose when the joints move, on average, this much more from it

@@ -30,6 +30,11 @@ the same as ``transforms.py``'s poses).
   ``static_dynamic_switch``; ``out_of_order``; ``duplicate_replaced``; ``jump_confirmed``).
 - A root sample that jumped (``body.jumps``) is held back until the next sample confirms the jump
   (the history before it dropped) or shows it a lone outlier (dropped).
+- A joint whose rotation jumped (``body.glitches``: faster than ``max_joint_speed`` deg/s) is held
+  back, its frame keeping its last good data, until its data comes back (a glitch: the held samples
+  are dropped, counted in ``adjusted["joint_glitch"]`` and per frame in ``glitches``, described in
+  ``last_glitch``) or stays away ``max_glitch_time`` (real motion: stored as it came,
+  ``adjusted["fast_joint_move"]``).
 """
 
 from __future__ import annotations
@@ -41,8 +46,10 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from ..params import DEFAULT_PARAMS
 from ..transforms import IDENTITY_QUAT, compose, inverse, quat_slerp
 from .compose_plan import ComposePlan, tree_chain
+from .glitches import GlitchHold, rotation_angle, rotation_jumped, turned
 from .jumps import JumpHold, is_jump
 from .root import fit_root_kinematics, headings, root_frame
 from .sample_series import SampleSeries
@@ -77,6 +84,8 @@ class PoseBuffer:
         max_frames: int = 1000,
         max_lead_s: float = 1.0,
         jump_distance_m: float = 1.0,
+        max_joint_speed: float = DEFAULT_PARAMS.max_joint_speed,
+        max_glitch_time: float = DEFAULT_PARAMS.max_glitch_time,
     ):
         checks = {
             "max_duration_s": (max_duration_s, 0.0), "max_count": (max_count, 2),
@@ -84,6 +93,7 @@ class PoseBuffer:
             "quaternion_tolerance": (quaternion_tolerance, _UNIT_SILENT),
             "kinematics_window_s": (kinematics_window_s, 0.0), "max_frames": (max_frames, 1),
             "max_lead_s": (max_lead_s, 0.0), "jump_distance_m": (jump_distance_m, 0.0),
+            "max_joint_speed": (max_joint_speed, 0.0), "max_glitch_time": (max_glitch_time, 0.0),
         }
         for name, (value, low) in checks.items():
             whole = name in ("max_count", "max_frames")
@@ -106,6 +116,9 @@ class PoseBuffer:
         self.rejected: Counter[str] = Counter()
         self.adjusted: Counter[str] = Counter()
         self._jumps = JumpHold(self.adjusted, self.rejected)
+        self._glitches = GlitchHold(float(max_joint_speed), float(max_glitch_time))
+        self.glitches: Counter[str] = Counter()  # joint glitches dropped, by child frame
+        self.last_glitch = ""  # the newest glitch, described
         self._parent: dict[str, str] = {}
         self._static: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._dynamic: dict[str, SampleSeries] = {}
@@ -173,6 +186,8 @@ class PoseBuffer:
         rotation = [v / norm for v in rotation]
         if self._jumps.holds(child, series, stamp_s, position, rotation, self.jump_distance_m):
             return None
+        if len(series) and stamp_s > series.newest and self._held_as_glitch(child, series, stamp_s, position, rotation):
+            return None
         outcome = series.insert(stamp_s, position, rotation)
         if outcome == "inserted":
             self.adjusted["out_of_order"] += 1
@@ -207,9 +222,19 @@ class PoseBuffer:
             previous.append(index[-1] if index else i)
             index.append(i)
         distance = np.linalg.norm(translations - translations[previous], axis=1)
-        jumped = is_jump(distance, stamps - stamps[previous], self.jump_distance_m).tolist()
+        elapsed = stamps - stamps[previous]
+        jumped = (is_jump(distance, elapsed, self.jump_distance_m)
+                  | rotation_jumped(rotation_angle(units, units[previous]), elapsed, self.max_joint_speed)).tolist()
+        # each known child's first row against its newest sample, in one call
+        known = [(self._dynamic[child], index[0]) for child, index in rows.items() if child in self._dynamic]
+        first = [i for _, i in known]
+        newest = np.array([series.newest_rotation for series, _ in known]).reshape(-1, 4)
+        turned_away = rotation_jumped(rotation_angle(units[first], newest),
+                                      stamps[first] - np.array([series.newest for series, _ in known]),
+                                      self.max_joint_speed)
+        first_turned = dict(zip((children[i] for i in first), np.atleast_1d(turned_away).tolist()))
         stored, refusals, slow = 0, [], []
-        held = self._jumps.held  # children with an unconfirmed jump
+        held = self._jumps.held.keys() | self._glitches.held.keys()  # children with an unsettled jump
         for child, index in rows.items():
             series = self._dynamic.get(child)
             parent = parents[index[0]]
@@ -220,7 +245,8 @@ class PoseBuffer:
             block = [stamp_list[i] for i in index]  # Python scalars: cheaper than numpy for a few rows
             if (not all(good_list[i] and parents[i] == parent and not jumped[i] for i in index)
                     or block[0] <= series.newest or any(b <= a for a, b in zip(block, block[1:]))
-                    or math.dist(translations[index[0]], series.translations[-1]) > self.jump_distance_m):
+                    or math.dist(translations[index[0]], series.translations[-1]) > self.jump_distance_m
+                    or first_turned[child]):
                 slow.extend(index)  # refused, out of order, duplicated or jumping: one by one, counted there
                 continue
             for i, stamp in zip(index, block):
@@ -235,6 +261,41 @@ class PoseBuffer:
             else:
                 refusals.append(refusal)
         return stored, refusals
+
+    @property
+    def max_joint_speed(self) -> float:
+        return self._glitches.max_joint_speed
+
+    @max_joint_speed.setter
+    def max_joint_speed(self, value: float) -> None:
+        self._glitches.max_joint_speed = float(value)
+
+    @property
+    def max_glitch_time(self) -> float:
+        return self._glitches.max_glitch_time
+
+    @max_glitch_time.setter
+    def max_glitch_time(self, value: float) -> None:
+        self._glitches.max_glitch_time = float(value)
+
+    def _held_as_glitch(self, child: str, series: SampleSeries, stamp_s: float, position, rotation) -> bool:
+        """Offer a sample after the child's newest to the glitch filter: True when it is held; the samples
+        it settles are dropped (a glitch) or stored before it (a real fast move)."""
+        verdict, settled = self._glitches.offer(child, stamp_s, rotation, series.newest, series.rotations[-1],
+                                                (stamp_s, position, rotation))
+        if verdict == GlitchHold.GLITCH:
+            self.adjusted["joint_glitch"] += 1
+            self.glitches[child] += 1
+            first_stamp, _, first_rotation = settled[0]
+            angle = math.degrees(turned(series.rotations[-1], first_rotation))
+            self.last_glitch = (f"{child!r} turned {angle:.0f} deg "
+                                f"in {first_stamp - series.newest:.3f} s at {first_stamp:.3f} and came back "
+                                f"{stamp_s - first_stamp:.3f} s later: {len(settled)} sample(s) dropped")
+        elif verdict == GlitchHold.FAST_MOVE:
+            self.adjusted["fast_joint_move"] += 1
+            for sample in settled:
+                series.insert(*sample)
+        return verdict == GlitchHold.HOLD
 
     def _reject(self, reason: str, parent, child, why: str) -> str:
         self.rejected[reason] += 1
@@ -256,6 +317,7 @@ class PoseBuffer:
     def _forget(self, child: str) -> None:
         self._tree_changed()
         self._jumps.forget(child)
+        self._glitches.forget(child)
         self._static.pop(child, None)
         self._dynamic.pop(child, None)
         self._parent.pop(child, None)

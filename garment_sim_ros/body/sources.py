@@ -8,11 +8,13 @@ joint map, the rest pose the garments are fitted to (the canonical standing pose
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
 
+from ..params import DEFAULT_PARAMS
+from .glitches import GlitchReport
 from .root import fit_root_kinematics, root_frame
 from .samples import RootMotion, SampleStatus
 from .skeleton import Skeleton, SkeletonPose
@@ -35,6 +37,7 @@ class MotionSource:
     local_transforms: Callable[[float], tuple] | None = None  # parent-relative (J,3), (J,4), for /tf
     period: float | None = None  # s: the motion starts again every period (a looping clip), else None
     dropped_reference_frame: bool = False  # the clip's frame 0 was a reference pose, not played
+    glitches: GlitchReport = field(default_factory=GlitchReport)  # the clip's joint glitches, replaced
 
     def loop_index(self, t: float) -> int:
         """Which pass through a looping clip time ``t`` falls in (0 for a source that does not loop)."""
@@ -94,17 +97,19 @@ def procedural_source(gait: str = "walk", height: float = 1.75) -> MotionSource:
 
 
 def bvh_source(path: str, loop: bool = True, keep_first_frame: bool = False, speed: float = 1.0,
-               joint_map: dict | None = None) -> MotionSource:
+               joint_map: dict | None = None, params=DEFAULT_PARAMS) -> MotionSource:
     """A BVH clip played at ``speed``; frame 0 is dropped when it is a reference pose (see
-    ``body.bvh.load_bvh``) unless ``keep_first_frame``. The joint map is found from the first
-    played frame (any pose serves), the rest pose is that frame stood up (``canonical_pose``)."""
+    ``body.bvh.load_bvh``) unless ``keep_first_frame``, joint glitches are replaced by ``params``'
+    ``max_joint_speed`` and ``max_glitch_time``. The joint map is found from the first played frame
+    (any pose serves), the rest pose is that frame stood up (``canonical_pose``)."""
     from .bvh import load_bvh
     from .canonical import canonical_pose
     from .joint_map import auto_joint_map
 
     if not (speed > 0.0 and math.isfinite(speed)):
         raise ValueError(f"playback speed must be a finite number > 0, got {speed!r}")
-    clip = load_bvh(path, keep_first_frame=keep_first_frame)
+    clip = load_bvh(path, keep_first_frame=keep_first_frame, max_joint_speed=params.max_joint_speed,
+                    max_glitch_time=params.max_glitch_time)
     first = clip.pose(0)
     mapping = dict(joint_map) if joint_map else auto_joint_map(clip.skeleton, first.positions)
 
@@ -117,4 +122,4 @@ def bvh_source(path: str, loop: bool = True, keep_first_frame: bool = False, spe
     played = clip.duration / speed
     return MotionSource(path, clip.skeleton, mapping, canonical_pose(first, mapping), pose,
                         None if loop else played, local_transforms, period=played if loop and played > 0 else None,
-                        dropped_reference_frame=clip.dropped_reference_frame)
+                        dropped_reference_frame=clip.dropped_reference_frame, glitches=clip.glitches)

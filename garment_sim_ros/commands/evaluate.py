@@ -114,6 +114,7 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
     ``structural_stretch_p99`` / ``shear_stretch_p99`` (the worst frame's 99th percentile of length /
     rest length) and ``..._max`` (the longest spring); ``guard_firings`` (frames) and ``carried_frames`` (frames
     a garment was carried rigidly after a runaway, ``DressedCharacter._recover``);
+    ``joint_glitches`` and ``joint_glitches_text``, the clip's joint glitches replaced on load (``body.glitches``);
     ``targets`` (``quality.Targets.judge``), ``passed`` and ``wall_s``. An outfit's frame counts when any
     of its garments fails it; it adds ``layer_crossing_frames`` (frames with an outer garment's edge through
     an inner garment's triangle), ``layer_crossings_max`` (most such edges at once) and ``layers``: per
@@ -125,8 +126,9 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
     from .simulate import simulate_frames
 
     tic = time.perf_counter()
-    source = bvh_source(run.clip, loop=False, speed=run.speed)
-    character = make_character(source.rest_pose, source.joint_map, run.garment.split("+"), preset(run.preset),
+    params = preset(run.preset)
+    source = bvh_source(run.clip, loop=False, speed=run.speed, params=params)
+    character = make_character(source.rest_pose, source.joint_map, run.garment.split("+"), params,
                                run.resolution, decimate_to=run.decimate, motion=source.fit_poses(),
                                forearms=run.forearms)
     seconds = source.duration if run.duration is None else min(source.duration, run.duration)
@@ -177,7 +179,8 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
         }
 
     row = {"clip": Path(run.clip).stem, "garment": "+".join(character.garment_names), "speed": run.speed,
-           "fps": run.fps, "frames": frames, **figures(list(range(worn)))}
+           "fps": run.fps, "frames": frames, **figures(list(range(worn))),
+           "joint_glitches": source.glitches.total, "joint_glitches_text": source.glitches.summary()}
     if worn > 1:
         row["layer_crossing_frames"] = int(np.count_nonzero(crossings.sum(axis=1)))
         row["layer_crossings_max"] = int(crossings.sum(axis=1).max())
@@ -277,6 +280,9 @@ def run(args) -> int:
 
     rows = evaluate_all(runs, args.jobs, on_row)
     summary = summarize(rows)
+    if not args.json:  # the clips' input repairs, once per clip
+        for clip, text in dict((row["clip"], row["joint_glitches_text"]) for row in rows).items():
+            print(f"{clip}: {text}")
     print(json.dumps({"summary": summary}) if args.json else format_summary(summary))
     return 0 if summary["passed"] == summary["runs"] else 1
 

@@ -183,6 +183,8 @@ class Replay:
             "simulated_frames": simulated,
             "loop_counts": dict(sorted(self.loop.counts.items())),
             "rejected": dict(sorted(self.buffer.rejected.items())),
+            "adjusted": dict(sorted(self.buffer.adjusted.items())),
+            "joint_glitches": dict(sorted(self.buffer.glitches.items())),
             "undecodable": self.undecodable,
             "garments": [] if character is None else character.garment_names,
             "mass_points": self.loop.mass_points,
@@ -214,6 +216,8 @@ def run(args) -> int:
           f"{summary['max_penetration_m'] * 1e3:.3f} mm")
     if summary["loop_counts"]:
         print("loop: " + ", ".join(f"{k} {n}" for k, n in summary["loop_counts"].items()))
+    if summary["joint_glitches"]:
+        print("joint glitches dropped: " + ", ".join(f"{k} {n}" for k, n in summary["joint_glitches"].items()))
     print(f"Rerun recording: {summary['rrd']}  (open it with: .venv/bin/rerun {summary['rrd']})")
     if summary["markers_bag"]:
         print(f"markers: {summary['marker_messages']} MarkerArray messages on {MARKERS_TOPIC} "

@@ -12,7 +12,7 @@ from ..body.sources import GAITS, bvh_source, procedural_source
 from ..cloth.garments import GARMENT_NAMES
 from ..cloth.spec import parse_garment_list
 from ..dressing import make_character
-from ..params import PRESETS, preset
+from ..params import DEFAULT_PARAMS, PRESETS, preset
 
 HELP = ("Dress the procedural walking character (or a BVH clip) and simulate it without ROS, printing "
         "per-frame figures: substeps, stage times, stretch and penetration; --export writes the run "
@@ -79,12 +79,14 @@ def simulate_frames(source, character, times):
         t = t_next
 
 
-def run_source(args):
-    """The motion source ``--bvh``/``--speed``/``--loop`` (or ``--gait``) ask for."""
+def run_source(args, params=DEFAULT_PARAMS):
+    """The motion source ``--bvh``/``--speed``/``--loop`` (or ``--gait``) ask for (a clip's joint glitches
+    replaced by ``params``)."""
     if not (math.isfinite(args.speed) and args.speed > 0):
         raise ValueError(f"--speed must be > 0, got {args.speed}")
     if args.bvh:
-        return bvh_source(args.bvh, loop=args.loop, keep_first_frame=args.keep_first_frame, speed=args.speed)
+        return bvh_source(args.bvh, loop=args.loop, keep_first_frame=args.keep_first_frame, speed=args.speed,
+                          params=params)
     if args.speed != 1.0 or args.loop or args.keep_first_frame:
         raise ValueError("--speed, --loop and --keep-first-frame play a --bvh clip; the procedural character "
                          "has --gait walk/run/fast")
@@ -98,7 +100,7 @@ def run(args) -> int:
     if args.export and not args.export.endswith(".npz"):
         raise ValueError(f"--export: {args.export!r} must end in .npz")
     params = preset(args.preset)
-    source = run_source(args)
+    source = run_source(args, params)
     character = make_character(source.rest_pose, source.joint_map, garments, params, args.resolution,
                                decimate_to=args.decimate, motion=source.fit_poses())
     frames = int(round(args.duration * args.fps))
@@ -120,6 +122,8 @@ def run(args) -> int:
             print(f"dressing: {note}")
         if source.dropped_reference_frame:
             print("the clip's frame 0 is a reference pose: dropped (--keep-first-frame plays it)")
+        if source.glitches.total:
+            print(f"the clip's input: {source.glitches.summary()}")
         print(f"{'frame':>6} {'t [s]':>7} {'substeps':>8} {'integr. ms':>10} {'correct. ms':>11} {'collision ms':>12} "
               f"{'stretch':>8} {'p99':>6} {'penetr. mm':>10} {'bones':>5} {'legs off':>8} {'lag s':>6}")
     steps = simulate_frames(source, character, np.arange(frames + 1) / args.fps)
@@ -163,7 +167,8 @@ def run(args) -> int:
         tic = time.perf_counter()
     summary = {"garments": character.garment_names, "notes": character.notes, "frames": frames,
                "median_frame_ms": float(np.median(totals) * 1e3) if totals else 0.0,
-               "max_penetration_m": worst_penetration, **quality_frames}
+               "max_penetration_m": worst_penetration, **quality_frames,
+               "joint_glitches": source.glitches.as_dict()}
     if recorder is not None:
         summary["export"] = str(recorder.save(args.export))
     if args.json:

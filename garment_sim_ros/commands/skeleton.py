@@ -13,11 +13,12 @@ from ..body.fitting import Body, fit_body
 from ..body.joint_map import JointMapError, auto_joint_map, load_joint_map
 from ..body.overrides import BodyConfigError, load_body_overrides
 from ..collision.volumes import KIND_NAMES
+from ..params import DEFAULT_PARAMS, PARAMETER_TABLE, ParameterError
 
 HELP = ("Read a BVH clip (converted to REP-103 z-up metres) and print the detected joint map, the body "
         "volumes fitted to its skeleton in the canonical standing pose and to its first pose (trunk volumes an arm "
         "bone comes near are narrowed), the measurements estimated and clip info "
-        "(frames, fps, duration, mean horizontal pelvis speed).")
+        "(frames, fps, duration, mean horizontal pelvis speed) with the joint glitches replaced on reading.")
 
 _KIND_LABELS = {code: label for label, code in KIND_NAMES.items()}
 
@@ -30,6 +31,12 @@ def add_arguments(parser) -> None:
                              "or metres per unit")
     parser.add_argument("--keep-first-frame", action="store_true",
                         help="keep frame 0 even when it is a reference pose (dropped by default)")
+    parser.add_argument("--max-joint-speed", type=float, default=DEFAULT_PARAMS.max_joint_speed, metavar="DEG_S",
+                        help="joint glitch filter: a joint turning faster than this jumped (deg/s; 0: off; "
+                             f"default {DEFAULT_PARAMS.max_joint_speed:g})")
+    parser.add_argument("--max-glitch-time", type=float, default=DEFAULT_PARAMS.max_glitch_time, metavar="S",
+                        help="a jump back within this is a glitch, replaced; longer is motion, kept "
+                             f"(s; default {DEFAULT_PARAMS.max_glitch_time:g})")
     parser.add_argument("--joint-map", metavar="YAML", help="joint map file instead of the automatic mapper")
     parser.add_argument("--detailed", action="store_true", help="fit the 15-volume body (neck, forearms, feet)")
     parser.add_argument("--body-config", metavar="YAML", help="volume overrides (default: config/body.yaml)")
@@ -67,6 +74,8 @@ def summary(clip: Clip, body: Body) -> dict:
         "root_speed_mps": round(root_speed(clip, body.joint_map["pelvis"]), 4),
         "units_scale": clip.units_scale,
         "dropped_reference_frame": clip.dropped_reference_frame,
+        "joint_glitches": clip.glitches.as_dict(),
+        "joint_glitches_text": clip.glitches.summary(limit=len(clip.glitches.counts)),
         "estimated": list(body.estimated),
         "narrowed": {name: round(scale, 4) for name, scale in body.narrowed.items()},
         "measurements": {k: round(float(v), 4) for k, v in vars(body.measurements).items()},
@@ -78,6 +87,8 @@ def _print_text(info: dict) -> None:
           f"pelvis {info['root_speed_mps']:.2f} m/s, {info['units_scale']:g} m per file unit")
     if info["dropped_reference_frame"]:
         print("frame 0 is a reference pose the motion jumps away from: not used (--keep-first-frame keeps it)")
+    print(f"joint glitches (a joint's rotation leaving faster than --max-joint-speed and back within "
+          f"--max-glitch-time; file frames): {info['joint_glitches_text']}")
     print("estimated (out of human range, replaced by an estimate from the height): "
           + (", ".join(info["estimated"]) or "nothing"))
     print("narrowed (an arm bone is near or in it in the first pose; cross-section scaled): "
@@ -96,7 +107,9 @@ def _print_text(info: dict) -> None:
 
 def run(args) -> int:
     try:
-        clip = load_bvh(args.bvh, units=_units(args.units), keep_first_frame=args.keep_first_frame)
+        clip = load_bvh(args.bvh, units=_units(args.units), keep_first_frame=args.keep_first_frame,
+                        max_joint_speed=PARAMETER_TABLE["max_joint_speed"].check(args.max_joint_speed),
+                        max_glitch_time=PARAMETER_TABLE["max_glitch_time"].check(args.max_glitch_time))
         first = clip.pose(0)
         if args.joint_map:
             joint_map = load_joint_map(args.joint_map, clip.skeleton)
@@ -106,7 +119,7 @@ def run(args) -> int:
                         overrides=load_body_overrides(args.body_config),
                         motion=[first])
         info = summary(clip, body)
-    except (BvhError, JointMapError, BodyConfigError, FileNotFoundError, ValueError) as err:
+    except (BvhError, JointMapError, BodyConfigError, ParameterError, FileNotFoundError, ValueError) as err:
         print(f"garment-sim skeleton: {err}", file=sys.stderr)
         return 2
     if args.json:

@@ -68,7 +68,8 @@ def crowd_statuses(node_name: str, members: Sequence[Member], values: Mapping[st
         figures = member.stats.window()
         level, message = level_and_message(member.loop, figures, frame_failed)
         counters = {"input": member.input_counts, "rejected": member.buffer.rejected,
-                    "adjusted": member.buffer.adjusted, "loop": member.loop.counts, "solver": member.stats.recoveries}
+                    "adjusted": member.buffer.adjusted, "glitch": member.buffer.glitches, "loop": member.loop.counts,
+                    "solver": member.stats.recoveries}
         figures_text = status_values(member.loop, figures, now_s, {"total_frames": member.stats.total_frames, **totals},
                                      counters)
         name = f"garment_sim: {node_name}" + (f": {member.prefix.strip('/')}" if len(members) > 1 else "")

@@ -40,7 +40,9 @@ module decides what happens:
    outlier never reaches the loop) dresses the garments again at the new pose instead of dragging
    them along (``teleported``); a body that walked on while the data or the loop stalled is slower
    than that, and lags; a
-   pose whose hips coincide horizontally has no heading and holds (``root_motion_degenerate``); a
+   pose whose hips coincide horizontally has no heading and holds (``root_motion_degenerate``); a joint
+   glitch the buffer dropped (``body.glitches``; the loop sets its ``max_joint_speed`` and
+   ``max_glitch_time`` from the parameters) is logged with the frame and the angle; a
    node clock that has not started (``use_sim_time`` without /clock) waits (``no_clock``, from
    ``clock_not_started``). Several skeletons under the fixed frame that ``frame_prefix`` does not
    tell apart: the largest is dressed, and a warning names them all and the one picked.
@@ -128,6 +130,8 @@ class CharacterLoop:
         self.params = params
         # one rule for a jump: the buffer confirms it, the loop re-dresses
         buffer.jump_distance_m = params.teleport_distance
+        buffer.max_joint_speed, buffer.max_glitch_time = params.max_joint_speed, params.max_glitch_time
+        self._glitches_logged = 0  # the buffer's joint glitches up to the last one logged
         self.garments = list(garments)
         self.resolution = float(resolution)
         self.garment_path = tuple(garment_path)
@@ -157,6 +161,7 @@ class CharacterLoop:
     def set_params(self, params: SolverParams) -> None:
         self.params = params
         self.buffer.jump_distance_m = params.teleport_distance
+        self.buffer.max_joint_speed, self.buffer.max_glitch_time = params.max_joint_speed, params.max_glitch_time
         if self.character is not None:
             self.character.set_params(params)
 
@@ -199,6 +204,7 @@ class CharacterLoop:
         ``time_s`` leads it by the last frame's compute): staleness is judged there."""
         now_s = time_s if now_s is None else now_s
         last_now_s, self._last_now_s = self._last_now_s, now_s
+        self._note_glitches()
         if self.character is None:
             return self._dress_when_ready(time_s)
         if time_s <= self.last_time:
@@ -274,6 +280,14 @@ class CharacterLoop:
         self._running(time_s)
         penetration_m = max((r.max_depth_m for r in reports), default=0.0) if measured else math.nan
         return FrameResult(time_s, sample.pose, reports, frame_s, step_s, penetration_m, False, measured)
+
+    def _note_glitches(self) -> None:
+        """The joint glitches the buffer dropped since the last frame: logged (throttled; counted there)."""
+        count = self.buffer.adjusted["joint_glitch"]
+        if count > self._glitches_logged:
+            self._glitches_logged = count
+            self.events.log("warning", "joint_glitch", f"joint glitch in the skeleton input, replaced by the joint's "
+                            f"motion around it ({count} so far, diagnostics glitch_<frame>): {self.buffer.last_glitch}")
 
     def _quality_due(self, time_s: float) -> bool:
         """Measure the frame at ``time_s``: the first after dressing, or ``1 / quality_rate_hz`` after the last
