@@ -26,10 +26,10 @@ of the two volumes' axes (their local z segments), the volumes reach e_a from c_
 surfaces), and overlap by o = e_a + e_b - |c_b - c_a| > -gap. The line joins the axes' nearest points,
 unless the axes lie side by side (a forearm along the hip, an upper arm along the chest): their nearest
 points are then at one end, where the volumes taper, and they overlap most elsewhere, so lines from
-heights sampled along each axis, square to both (within 15 deg), are measured too, and the deepest is used when it
-finds 10 mm more overlap (``_overlap``). The plane is square
-to that line and divides the axes' distance in proportion to the reaches (the thicker part gives way more,
-each by its share of o), then is moved, if need be, to keep ``clearance`` from either volume's bone
+heights sampled along each axis, square to both (within 15 deg), are measured too, and the deepest is
+used when it finds 10 mm more overlap (``_overlap``). The plane is square to that line and divides the
+axes' distance in proportion to the reaches (the thicker part gives way more, each by its share of o),
+then is moved, if need be, to keep ``clearance`` from either volume's bone
 segment (the whole segment; a volume without a bone: its axis point c_a): a limb's bone stays on its own
 side with room for the cloth, so the cloth between a forearm and the hip ends between the forearm's bone
 and the pelvis' centre. Bones closer together than twice the clearance: the plane goes halfway between
@@ -61,8 +61,8 @@ _SAMPLES = 9  # heights along each axis whose lines square to the other axis are
 # A sampled line is used within 15 deg of square to both axes: oblique lines measure an ellipsoid's reach
 # towards its long axis, and the plane cut square to them takes a cap off it.
 _MAX_TILT = math.sin(math.radians(15.0))
-# m: and only when it finds this much more overlap than the nearest points' line. Lines a few mm deeper
-# turn the plane by 15-25 deg between substeps (cmu_131 at 1.98 s: 1.5 mm deeper, the forearm-thigh plane
+# m: and only when it finds this much more overlap than the nearest points' line: a line a few mm deeper
+# turns the plane from one substep to the next (cmu_131 at 1.98 s: 1.5 mm deeper, the forearm-thigh plane
 # turned 15 deg and the forearm went through the short skirt).
 _SAMPLED_MARGIN = 0.01
 
@@ -141,15 +141,6 @@ def _overlap_along(kinds, radii, rot, a, b, za, zb, ax, ay, az, bx, by, bz):
 
 
 @kernel
-def _nearest_on_segment(px, py, pz, qx, qy, qz, ex, ey, ez):
-    """Parameter t in [0, 1] of the point q + t e of a segment nearest to the point p."""
-    e = ex * ex + ey * ey + ez * ez
-    if e <= _TINY * _TINY:
-        return 0.0
-    return min(1.0, max(0.0, (ex * (px - qx) + ey * (py - qy) + ez * (pz - qz)) / e))
-
-
-@kernel
 def _overlap(kinds, radii, cuts, pos, rot, a, b):
     """``(overlap, za, zb, ux, uy, uz, distance, reach_a, reach_b)`` of volumes a and b (``_overlap_along``):
     along the line joining their axes' nearest points, unless one of the ``_SAMPLES`` lines from evenly
@@ -177,11 +168,13 @@ def _overlap(kinds, radii, cuts, pos, rot, a, b):
         h = (i // 2) / (_SAMPLES - 1.0)
         if i % 2 == 0:  # from height h on a's axis, square to b's
             sa = h
-            sb = _nearest_on_segment(pax + h * dax, pay + h * day, paz + h * daz, pbx, pby, pbz, dbx, dby, dbz)
+            sb = _nearest_on_segments(pax + h * dax, pay + h * day, paz + h * daz, 0.0, 0.0, 0.0,
+                                      pbx, pby, pbz, dbx, dby, dbz)[1]
             inside, ex, ey, ez = 0.0 < sb < 1.0, dax / length_a, day / length_a, daz / length_a
         else:  # from height h on b's axis, square to a's
             sb = h
-            sa = _nearest_on_segment(pbx + h * dbx, pby + h * dby, pbz + h * dbz, pax, pay, paz, dax, day, daz)
+            sa = _nearest_on_segments(pbx + h * dbx, pby + h * dby, pbz + h * dbz, 0.0, 0.0, 0.0,
+                                      pax, pay, paz, dax, day, daz)[1]
             inside, ex, ey, ez = 0.0 < sa < 1.0, dbx / length_b, dby / length_b, dbz / length_b
         if not inside:
             continue
