@@ -14,7 +14,7 @@ import pytest
 from garment_sim_ros.body.sources import bvh_source
 from garment_sim_ros.collision import contact_planes
 from garment_sim_ros.collision.collider import Collider
-from garment_sim_ros.collision.volumes import CAPSULE, SPHERE, Volume, VolumeSet
+from garment_sim_ros.collision.volumes import CAPSULE, ELLIPSOID, SPHERE, Volume, VolumeSet
 from garment_sim_ros.commands.simulate import simulate_frames
 from garment_sim_ros.dressing import make_character
 from garment_sim_ros.params import DEFAULT_PARAMS, preset
@@ -132,6 +132,31 @@ def test_the_plane_keeps_its_clearance_from_the_bones(b_at):
         assert 0.5 * (face_a + face_b) == pytest.approx(0.5 * b_at)
     x = _handled(collider, (b_at - 0.005, 0.0, 0.05), (b_at - 0.005, 0.0, 0.05))  # near the thin bone
     assert 0.0 < x[0] < b_at  # between the two bones
+    assert collider.penetration_depths(x[None])[0] == 0.0
+
+
+def test_a_limb_lying_along_the_trunk_meets_it_on_a_plane():
+    """A forearm along the hip: a trunk ellipsoid (12 cm round, 30 cm half-height, no bone) and a limb
+    (4 cm round, 20 cm, its bone 15 cm either way) beside it, axes parallel and 14 cm apart, overlap 2 cm at
+    mid-height. The nearest points of the axes are at their lower ends, where the ellipsoids taper to
+    nothing: along that line they are 18 cm apart, and without the lines square to the axes the pair gets no
+    plane and the cloth between them none outside both. Measured along the line at mid-height: the plane
+    divides the 14 cm as the reaches 12 : 4 (at x = 10.5 cm), square to the axes, and a point squeezed
+    there rests on it, outside both."""
+    trunk = Volume("trunk", ELLIPSOID, "ft", (0.12, 0.12, 0.3))
+    limb = Volume("limb", ELLIPSOID, "fl", (0.04, 0.04, 0.2), bone=(-0.15, 0.15))
+    collider = _pressed_pair(trunk, limb, 0.14)
+    assert collider.pressed_depth == pytest.approx(0.02)
+    (normal_a, offset_a), = _faces(collider)[0]
+    (normal_b, offset_b), = _faces(collider)[1]
+    plane = 0.14 * 0.12 / 0.16
+    np.testing.assert_allclose(normal_a, [1.0, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(normal_b, [-1.0, 0.0, 0.0], atol=1e-12)
+    assert offset_a == pytest.approx(plane - EPS) and -offset_b == pytest.approx(plane + EPS - 0.14)
+    start = (0.11, 0.0, 0.05)  # 8 mm deep in either uncut volume
+    assert 0.12 * np.sqrt(1.0 - (0.05 / 0.3) ** 2) - 0.11 > 0.008 and 0.04 * np.sqrt(1.0 - 0.25 ** 2) - 0.03 > 0.008
+    x = _handled(collider, start, start)
+    assert x[0] == pytest.approx(plane, abs=1e-9) and x[2] == pytest.approx(0.05)
     assert collider.penetration_depths(x[None])[0] == 0.0
 
 
