@@ -56,7 +56,7 @@ import numpy as np
 
 from ..collision.volumes import ELLIPSOID, SPHERE, Volume, VolumeSet
 from ..transforms import quat_conjugate, quat_from_matrix, quat_multiply, quat_rotate, yaw_quat
-from .aiming import FrameAim
+from .aiming import FrameAim, aimed_frame_poses
 from .canonical import MIN_BONE_M
 from .joint_map import validate_joint_map
 from .measurements import BodyMeasurements
@@ -379,7 +379,8 @@ def _foot(fit: _Fit, side: str) -> Volume:
 def _measure(fit: _Fit, volumes: VolumeSet, levels: dict[str, float]) -> BodyMeasurements:
     """Measurements read from the fitted volumes in the rest pose's root frame."""
     by_name = {v.name: v for v in volumes.volumes}
-    positions, rotations = volumes.world_poses(*_frame_poses(fit.pose, volumes.frames))
+    # the rest pose: an aimed frame is as the skeleton has it there
+    positions, rotations = volumes.world_poses(*aimed_frame_poses(fit.pose, volumes.frames))
 
     def placed(name: str):
         k = volumes.names().index(name)
@@ -443,11 +444,6 @@ def _measure(fit: _Fit, volumes: VolumeSet, levels: dict[str, float]) -> BodyMea
         waist_x=waist_x, hip_x=hip_x, chest_x=chest_x, leg_x=levels["leg_x"], spine_z=levels["spine_z"],
         underarm_y=underarm_y,
     ).items()})
-
-
-def _frame_poses(pose: SkeletonPose, frames: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
-    index = [pose.skeleton.index(f) for f in frames]
-    return pose.positions[index], pose.rotations[index]
 
 
 def fit_body(rest_pose: SkeletonPose, joint_map: Mapping[str, str], detailed: bool = False,
