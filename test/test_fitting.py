@@ -305,6 +305,19 @@ def test_skeleton_command_json(capsys):
     chord = np.linalg.norm(clip.translations[-1, 0, :2] - clip.translations[0, 0, :2]) / clip.duration
     assert chord <= info["root_speed_mps"] < 2.0
     assert info["measurements"]["thigh_radius"] == pytest.approx(info["volumes"][4]["radii"][0], abs=1e-3)
+    assert all(v["aimed_at"] is None for v in info["volumes"])  # CMU's lowerback -> Chest is one bone
+
+
+def test_skeleton_command_shows_what_a_trunk_volume_is_aimed_at(capsys):
+    """CC's torso spans Waist -> Spine01 -> Spine02 and its neck NeckTwist01 -> NeckTwist02 -> Head: each is
+    aimed at the joint at its top (``body.aiming``), and the command says so."""
+    assert cli.main(["skeleton", str(DATA / "cc_cmu_07_01_walk.bvh"), "--detailed", "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert {v["name"]: v["aimed_at"] for v in info["volumes"] if v["aimed_at"]} == {
+        "torso": "CC_Base_Spine02", "neck": "CC_Base_Head"}
+    assert cli.main(["skeleton", str(DATA / "cc_cmu_07_01_walk.bvh")]) == 0
+    torso = next(line for line in capsys.readouterr().out.splitlines() if line.strip().startswith("torso"))
+    assert "on CC_Base_Waist" in torso and torso.endswith("aimed at CC_Base_Spine02")
 
 
 def test_skeleton_command_text_and_errors(capsys, tmp_path):
