@@ -45,6 +45,7 @@ from typing import Sequence
 
 import numpy as np
 
+from .body.aiming import aimed_frame_poses
 from .body.canonical import local_transforms
 from .body.fitting import fit_body
 from .body.overrides import BodyOverrides
@@ -270,8 +271,9 @@ class DressedCharacter:
         return [row for row, solver in enumerate(self.solvers) if self._inner[row] and solver in solvers]
 
     def _frame_poses(self, pose: SkeletonPose, frames: Sequence[str]):
-        index = [pose.skeleton.index(f) for f in frames]
-        return pose.positions[index], pose.rotations[index]
+        """The frames' poses at ``pose``, the trunk's aimed along the spine (``body.aiming``): the volumes and
+        the attachments on them (a skirt's waistband on the spine segment) ride one frame."""
+        return aimed_frame_poses(pose, frames, self.body.volumes.aims)
 
     def dress(self, pose: SkeletonPose, time_s: float, motion: RootMotion | None = None,
               settle_s: float = 0.6, frame_s: float = 1.0 / 60.0) -> None:

@@ -21,7 +21,7 @@ import numpy as np
 from .collision.volumes import KIND_NAMES
 from .rerun_log import volume_poses
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: joint_aims, joint_aim_directions
 _KIND_TEXT = {code: name for name, code in KIND_NAMES.items()}
 
 
@@ -53,6 +53,10 @@ class Run:
     joint_parents: np.ndarray
     joint_positions: np.ndarray
     joint_rotations: np.ndarray
+    # (J,) index into joint_names of the joint each joint's frame is aimed at (``body.aiming``), -1 for none, and
+    # (J, 3) the unit direction, in the joint's axes, kept pointing at it
+    joint_aims: np.ndarray
+    joint_aim_directions: np.ndarray
     joint_map: dict[str, str]
     garments: dict[str, GarmentTrack]
     volume_names: np.ndarray
@@ -84,6 +88,7 @@ class RunRecorder:
             "speed": np.float64(speed),
             "joint_names": np.array(self.skeleton.names, dtype=str),
             "joint_parents": np.array(self.skeleton.parents, dtype=np.int64),
+            **_aims(self.skeleton, character.body.volumes.aims),
             "joint_map_roles": np.array(list(character.joint_map), dtype=str),
             "joint_map_joints": np.array(list(character.joint_map.values()), dtype=str),
             "garment_names": np.array(names, dtype=str),
@@ -160,7 +165,8 @@ def read_run(path: str | Path) -> Run:
     frames = len(times)
     joints, volumes = len(_get(arrays, path, "joint_names")), len(_get(arrays, path, "volume_names"))
     expected = {"times": (frames,), "joint_parents": (joints,), "joint_positions": (frames, joints, 3),
-                "joint_rotations": (frames, joints, 4), "volume_kinds": (volumes,), "volume_joints": (volumes,),
+                "joint_rotations": (frames, joints, 4), "joint_aims": (joints,), "joint_aim_directions": (joints, 3),
+                "volume_kinds": (volumes,), "volume_joints": (volumes,),
                 "volume_radii": (volumes, 3), "volume_cuts": (volumes, 2), "volume_positions": (frames, volumes, 3),
                 "volume_rotations": (frames, volumes, 4),
                 "joint_map_joints": (len(_get(arrays, path, "joint_map_roles")),)}
@@ -186,12 +192,22 @@ def read_run(path: str | Path) -> Run:
         source=str(_get(arrays, path, "source")), fps=float(_get(arrays, path, "fps")),
         speed=float(_get(arrays, path, "speed")), times=times, joint_names=arrays["joint_names"],
         joint_parents=arrays["joint_parents"], joint_positions=arrays["joint_positions"],
-        joint_rotations=arrays["joint_rotations"],
+        joint_rotations=arrays["joint_rotations"], joint_aims=arrays["joint_aims"],
+        joint_aim_directions=arrays["joint_aim_directions"],
         joint_map=dict(zip(arrays["joint_map_roles"].tolist(), arrays["joint_map_joints"].tolist())),
         garments=garments, volume_names=arrays["volume_names"], volume_kinds=arrays["volume_kinds"],
         volume_joints=arrays["volume_joints"], volume_radii=arrays["volume_radii"], volume_cuts=arrays["volume_cuts"],
         volume_positions=arrays["volume_positions"], volume_rotations=arrays["volume_rotations"],
     )
+
+
+def _aims(skeleton, aims) -> dict[str, np.ndarray]:
+    """The frames turned onto a joint of the spine chain (``body.aiming.FrameAim``) as per-joint arrays."""
+    targets, directions = np.full(len(skeleton.names), -1, dtype=np.int64), np.zeros((len(skeleton.names), 3))
+    for aim in aims:
+        targets[skeleton.index(aim.frame)] = skeleton.index(aim.target)
+        directions[skeleton.index(aim.frame)] = aim.direction
+    return {"joint_aims": targets, "joint_aim_directions": directions}
 
 
 def _get(arrays: dict, path, key: str) -> np.ndarray:

@@ -42,6 +42,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from .body.aiming import aimed_frame_poses
 from .collision.volumes import CAPSULE, ELLIPSOID, VolumeSet
 from .quality import report_scalars
 from .shading import BODY_RGB, DEFAULT_LIGHT_DIR, SKELETON_RGB, garment_color, shade
@@ -383,8 +384,7 @@ def skeleton_segments(pose) -> np.ndarray:
 
 def volume_poses(volumes: VolumeSet, pose) -> tuple[np.ndarray, np.ndarray]:
     """Every volume's centre (V, 3) and rotation (V, 4) xyzw in the world at a ``SkeletonPose``."""
-    index = [pose.skeleton.index(frame) for frame in volumes.frames]
-    return volumes.world_poses(pose.positions[index], pose.rotations[index])
+    return volumes.world_poses(*aimed_frame_poses(pose, volumes.frames, volumes.aims))
 
 
 def volume_ellipsoids(volumes: VolumeSet, pose) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -191,9 +191,11 @@ def test_the_cartwheels_thigh_against_the_belly_is_pressed_and_the_guard_stays_q
     and a thigh overlap at rest (at the hip crease) and got no plane: the collision handling lengthened a
     spring at the front substep after substep (2.1 to 8.6 rest lengths in the frame at 1.00 s), the guard
     fired at 1.00 s and 1.22 s and the skirt was carried. Their bones share no joint, so now they meet on a
-    plane (164 mm pressed at 1.22 s): no firing, the longest spring 7.32 rest lengths (the bound: 8). With the
-    clip's right thigh flips replaced (``body.glitches``; 1.22 s was one): 62 mm pressed at 1.23 s, the longest
-    spring 4.75 rest lengths, no firing (the planes off: a firing at 1.17 s, carried 15 frames)."""
+    plane: no firing. With the raw clip (170 mm pressed at 1.22 s) the longest spring up to 1.28 s was 2.58
+    rest lengths (6.01 at 1.22 s while the torso rode CC_Base_Waist alone, 40 deg off the spine, before
+    ``body.aiming``), and 8.76 at 1.30 s after the right knee jumped 43 cm in one frame, a data glitch. With
+    the clip's right thigh flips replaced (``body.glitches``): 70 mm pressed at 1.23 s, the longest spring
+    2.37 rest lengths (at 1.25 s), no firing."""
     source = bvh_source(str(DATA / "cc_cmu_05_06_dance_cartwheel_pirouette.bvh"), loop=False)
     character = make_character(source.rest_pose, source.joint_map, ["short_skirt"], preset("si"),
                                motion=source.fit_poses())
@@ -202,7 +204,7 @@ def test_the_cartwheels_thigh_against_the_belly_is_pressed_and_the_guard_stays_q
     assert ("torso", "right_upper_leg") in pairs and ("pelvis", "right_upper_leg") not in pairs
     reports = [r[0] for _, _, r in simulate_frames(source, character, np.arange(85) / 60.0) if r is not None]
     assert not any(r.recovery or r.carried for r in reports)
-    assert max(r.structural_stretch_max for r in reports) < 8.0
+    assert max(r.structural_stretch_max for r in reports) < 4.0
     assert max(r.pressed_depth_m for r in reports) > 0.05
 
 

@@ -15,7 +15,7 @@ from garment_sim_ros.body.root import root_frame
 from garment_sim_ros.body.sources import bvh_source
 from garment_sim_ros.cli import main
 from garment_sim_ros.export import read_run
-from garment_sim_ros.transforms import quat_conjugate, quat_rotate, yaw_quat
+from garment_sim_ros.transforms import quat_between, quat_conjugate, quat_multiply, quat_rotate, yaw_quat
 
 CLIP = Path(__file__).parent / "data" / "cmu_131_01_walk_mjstyle.bvh"
 SPEED, FPS = 8.0, 30.0  # the 8.3 s clip lasts ~1 s: a short run that ends with the clip
@@ -99,7 +99,8 @@ def test_a_file_that_is_not_a_run_is_refused(tmp_path):
 
 def test_a_skirt_waistband_rides_between_the_pelvis_and_the_spine_as_skinned(tmp_path):
     """The waistband is skinned to two joints: in every frame each of its points is the weighted mean of
-    where the pelvis and the spine segment put its cut position (linear blend skinning)."""
+    where the pelvis and the spine segment put its cut position (linear blend skinning), the spine's frame
+    aimed at the chest joint as the export says (CC's Waist -> Spine01 -> Spine02)."""
     clip = Path(__file__).parent / "data" / "cc_cmu_07_01_walk.bvh"
     path = tmp_path / "skirt.npz"
     assert main(["simulate", "--bvh", str(clip), "--garments", "short_skirt", "--fps", "30", "--duration", "1",
@@ -112,6 +113,8 @@ def test_a_skirt_waistband_rides_between_the_pelvis_and_the_spine_as_skinned(tmp
     names = list(run.joint_names)
     assert {names[j] for j in garment.attachment_joint[ids]} == {"CC_Base_Pelvis"}
     assert {names[j] for j in garment.attachment_joint2[ids]} == {"CC_Base_Waist"}
+    aimed = {names[j]: names[t] for j, t in enumerate(run.joint_aims) if t >= 0}
+    assert aimed == {"CC_Base_Waist": "CC_Base_Spine02"}
     source = bvh_source(str(clip), loop=False)
     rest = source.rest_pose
     origin, yaw = root_frame(rest, source.joint_map)
@@ -124,6 +127,12 @@ def test_a_skirt_waistband_rides_between_the_pelvis_and_the_spine_as_skinned(tmp
     for k in range(len(run.times)):
         def placed(joints, local):
             p, q = run.joint_positions[k, joints].astype(float), run.joint_rotations[k, joints].astype(float)
+            for row, joint in enumerate(joints):
+                target = run.joint_aims[joint]
+                if target >= 0:  # turned so that its aim direction points at the target joint again
+                    towards = run.joint_positions[k, target].astype(float) - p[row]
+                    q[row] = quat_multiply(quat_between(quat_rotate(q[row], run.joint_aim_directions[joint]),
+                                                        towards), q[row])
             return p + quat_rotate(q, local)
 
         expected = (1.0 - weight[:, None]) * placed(garment.attachment_joint[ids], local1) \

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from garment_sim_ros import cli
+from garment_sim_ros.body.aiming import aimed_frame_poses
 from garment_sim_ros.body.bvh import load_bvh
 from garment_sim_ros.body.canonical import canonical_pose
 from garment_sim_ros.body.fitting import (
@@ -37,9 +38,10 @@ BONES = {
                          ("lower_arm", "hand"))},
     "torso": ("spine", "chest"),
 }
-# A segment over two bones (CMU's neck: Neck -> Neck1 -> Head) follows its first joint's frame: its
-# far end drifts from the next role's joint by what the middle joint bends (mm for the neck).
-MULTI_BONE = {"neck": ("neck", "head", 0.02)}
+# A segment over two bones (CMU's neck: Neck -> Neck1 -> Head) rides its first joint's frame aimed at the
+# next role's joint (``body.aiming``): along that line, its centre on it but for what the middle joint's bend
+# shortens the line (mm for the neck).
+MULTI_BONE = {"neck": ("neck", "head", 0.005)}
 
 
 @pytest.fixture(scope="module", params=CLIP_NAMES)
@@ -53,11 +55,6 @@ def fitted(clip):
     joint_map = auto_joint_map(clip.skeleton, first.positions)
     rest = canonical_pose(first, joint_map)
     return clip, fit_body(rest, joint_map), fit_body(rest, joint_map, detailed=True)
-
-
-def frame_poses(pose: SkeletonPose, frames):
-    index = [pose.skeleton.index(f) for f in frames]
-    return pose.positions[index], pose.rotations[index]
 
 
 def in_root_frame(body, points):
@@ -104,7 +101,7 @@ def test_shins_are_a_human_calf_round(fitted):
 
 def test_left_volumes_are_on_the_left_of_the_root_frame(fitted):
     _, _, body = fitted
-    centres, _ = body.volumes.world_poses(*frame_poses(body.rest_pose, body.volumes.frames))
+    centres, _ = body.volumes.world_poses(*aimed_frame_poses(body.rest_pose, body.volumes.frames))
     local = in_root_frame(body, centres)
     for name, centre in zip(body.volumes.names(), local):
         if name.startswith("left_"):
@@ -120,7 +117,7 @@ def test_volumes_are_centred_on_their_bones_in_every_pose(fitted):
     names = body.volumes.names()
     for i in (0, clip.frames // 3, clip.frames - 1):
         pose = clip.pose(i)
-        centres, rotations = body.volumes.world_poses(*frame_poses(pose, body.volumes.frames))
+        centres, rotations = body.volumes.world_poses(*aimed_frame_poses(pose, body.volumes.frames, body.volumes.aims))
         for name, (start_role, end_role) in BONES.items():
             k = names.index(name)
             start = pose.frame(body.joint_map[start_role])[0]
@@ -134,13 +131,15 @@ def test_volumes_are_centred_on_their_bones_in_every_pose(fitted):
         for name, (start_role, end_role, tolerance) in MULTI_BONE.items():
             start = pose.frame(body.joint_map[start_role])[0]
             end = pose.frame(body.joint_map[end_role])[0]
+            axis = quat_rotate(rotations[names.index(name)], [0.0, 0.0, 1.0])
+            np.testing.assert_allclose(axis, (end - start) / np.linalg.norm(end - start), atol=1e-9, err_msg=name)
             assert np.linalg.norm(centres[names.index(name)] - 0.5 * (start + end)) < tolerance
 
 
 def local_point(body, name, point, pose=None):
     pose = pose or body.rest_pose
     k = body.volumes.names().index(name)
-    centres, rotations = body.volumes.world_poses(*frame_poses(pose, body.volumes.frames))
+    centres, rotations = body.volumes.world_poses(*aimed_frame_poses(pose, body.volumes.frames))
     return quat_rotate(quat_conjugate(rotations[k]), np.asarray(point) - centres[k])
 
 
@@ -175,7 +174,7 @@ def test_measurements_agree_with_the_volumes(fitted):
     thighs = [volumes[f"{s}_upper_leg"].radii[0] for s in ("left", "right")]
     assert m.thigh_radius == pytest.approx(np.mean(thighs))
     pelvis_centre = in_root_frame(body, body.volumes.world_poses(
-        *frame_poses(body.rest_pose, body.volumes.frames))[0][body.volumes.names().index("pelvis")])
+        *aimed_frame_poses(body.rest_pose, body.volumes.frames))[0][body.volumes.names().index("pelvis")])
     assert m.hip_z == pytest.approx(pelvis_centre[2])
     assert m.hip_ry >= volumes["pelvis"].radii[1] - 1e-12 and m.hip_rx >= volumes["pelvis"].radii[0] - 1e-12
     assert m.waist_z == pytest.approx(pelvis_centre[2] + volumes["pelvis"].cut[1])
@@ -306,6 +305,19 @@ def test_skeleton_command_json(capsys):
     chord = np.linalg.norm(clip.translations[-1, 0, :2] - clip.translations[0, 0, :2]) / clip.duration
     assert chord <= info["root_speed_mps"] < 2.0
     assert info["measurements"]["thigh_radius"] == pytest.approx(info["volumes"][4]["radii"][0], abs=1e-3)
+    assert all(v["aimed_at"] is None for v in info["volumes"])  # CMU's lowerback -> Chest is one bone
+
+
+def test_skeleton_command_shows_what_a_trunk_volume_is_aimed_at(capsys):
+    """CC's torso spans Waist -> Spine01 -> Spine02 and its neck NeckTwist01 -> NeckTwist02 -> Head: each is
+    aimed at the joint at its top (``body.aiming``), and the command says so."""
+    assert cli.main(["skeleton", str(DATA / "cc_cmu_07_01_walk.bvh"), "--detailed", "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert {v["name"]: v["aimed_at"] for v in info["volumes"] if v["aimed_at"]} == {
+        "torso": "CC_Base_Spine02", "neck": "CC_Base_Head"}
+    assert cli.main(["skeleton", str(DATA / "cc_cmu_07_01_walk.bvh")]) == 0
+    torso = next(line for line in capsys.readouterr().out.splitlines() if line.strip().startswith("torso"))
+    assert "on CC_Base_Waist" in torso and torso.endswith("aimed at CC_Base_Spine02")
 
 
 def test_skeleton_command_text_and_errors(capsys, tmp_path):
@@ -354,3 +366,43 @@ def test_a_short_and_a_tall_character_both_get_garments_that_fit(height):
         reference_girth = np.hypot(*build_garment(name, reference.measurements).vertices[reference_top, :2].T).mean()
         assert girth / reference_girth == pytest.approx(height / 1.75, rel=0.05)
 
+
+
+@pytest.mark.parametrize("clip_name", sorted(p.name for p in DATA.glob("cc_*.bvh")))
+def test_the_torso_lies_along_the_real_cc_spine_and_the_skirt_rides_that_torso(clip_name):
+    """Character Creator's torso spans CC_Base_Waist -> Spine01 -> Spine02, and in the shared clips the first,
+    5 cm bone leans 38-47 deg off the trunk: a torso riding it stood 40-56 deg off the pelvis-to-neck line
+    (issue 11). Aimed at the chest joint it lies along the chain at every frame, and the garments' solver
+    (their volumes and a skirt's waistband on the spine segment) rides that same torso, the one measured and
+    shown."""
+    from garment_sim_ros.body.sources import bvh_source
+    from garment_sim_ros.dressing import make_character
+    from garment_sim_ros.params import DEFAULT_PARAMS
+    from garment_sim_ros.rerun_log import volume_poses
+
+    source = bvh_source(str(DATA / clip_name), loop=False)
+    character = make_character(source.rest_pose, source.joint_map, ["short_skirt"], DEFAULT_PARAMS,
+                               motion=source.fit_poses())
+    body, jm = character.body, source.joint_map
+    torso = body.volumes.names().index("torso")
+    solver = character.solvers[0]
+    assert "spine" in solver.model.attachment_frames  # the waistband's second segment
+    leans = []
+    for t in np.linspace(0.0, source.duration, 12):
+        pose = source.pose(float(t))
+        spine, chest = pose.frame(jm["spine"])[0], pose.frame(jm["chest"])[0]
+        chord = (chest - spine) / np.linalg.norm(chest - spine)
+        centres, rotations = volume_poses(body.volumes, pose)
+        np.testing.assert_allclose(quat_rotate(rotations[torso], [0.0, 0.0, 1.0]), chord, atol=1e-9)
+        first = pose.frame(jm["spine"])
+        first_child = pose.skeleton.children(pose.skeleton.index(jm["spine"]))[0]
+        bone = pose.positions[first_child] - first[0]
+        leans.append(math.degrees(math.acos(np.clip(bone @ chord / np.linalg.norm(bone), -1.0, 1.0))))
+        # what the solver collides with, in its root frame, is the torso shown
+        root_p, root_yaw = root_frame(pose, jm)
+        local_p, local_q = solver._local_volume_poses(root_p, root_yaw, *character._frame_poses(pose, solver.frames))
+        to_root = quat_conjugate(yaw_quat(root_yaw))
+        np.testing.assert_allclose(local_p[torso], quat_rotate(to_root, centres[torso] - root_p), atol=1e-9)
+        np.testing.assert_allclose(quat_rotate(local_q[torso], [0.0, 0.0, 1.0]), quat_rotate(to_root, chord),
+                                   atol=1e-9)
+    assert min(leans) > 25.0  # the bone the torso rode before is well off the chain

@@ -238,3 +238,51 @@ def test_the_node_dresses_every_convention_from_tf_as_a_game_export_publishes_it
     expected = fit_body(canonical_pose(motion.poses[0], rig.joint_map), rig.joint_map, detailed=True)
     np.testing.assert_allclose(body.volumes.radii, expected.volumes.radii, rtol=0.02)
     assert 1.6 < body.measurements.height < 1.95
+
+
+# --- a curved spine: the trunk volumes follow the chain they span ------------------------------------
+
+@pytest.mark.parametrize("convention", CONVENTIONS)
+def test_trunk_volumes_follow_a_curved_spine_over_all_its_bones(convention):
+    """Every spine joint from the spine role up to the neck bent back and forth (a lumbar curve, as CC's
+    Waist -> Spine01 leans 40 deg off the trunk in the shared clips): the torso, chest and neck volumes
+    lie along the line from their first joint to the joint at their top, whatever the number of bones
+    between (1 for CMU, 4 for Unreal's spine_01 -> spine_05), and start at their first joint."""
+    from garment_sim_ros.body.aiming import aimed_frame_poses
+    from garment_sim_ros.transforms import quat_conjugate, quat_from_axis_angle, quat_multiply, quat_rotate
+
+    rig = build_rig(convention, "x")
+    sk, jm = rig.skeleton, rig.joint_map
+    spine, head = sk.index(jm["spine"]), sk.index(jm["head"])
+    chain = [head, *sk.ancestors(head)]
+    chain = chain[1:chain.index(spine) + 1]  # the trunk joints from the spine up to below the head
+    rotations = rig.bind_rotations.copy()
+    for k, joint in enumerate(chain):  # L_j about the left axis, alternating: B_p^-1 L B (rigs' module doc)
+        bend = quat_from_axis_angle(np.array([0.0, 1.0, 0.0]), np.radians(35.0 if k % 2 else -25.0))
+        parent = sk.parents[joint]
+        rotations[joint] = quat_multiply(quat_conjugate(rig.bind_world[parent]),
+                                         quat_multiply(bend, rig.bind_world[joint]))
+    bent = forward_kinematics(sk, rig.offsets, rotations)
+    body = fit_body(canonical_pose(bent, jm), jm, detailed=True)
+    positions, turned = body.volumes.world_poses(*aimed_frame_poses(bent, body.volumes.frames, body.volumes.aims))
+    names = body.volumes.names()
+    spans = {"torso": ("spine", "chest"), "chest": ("chest", "neck"), "neck": ("neck", "head")}
+    for name, (start_role, end_role) in spans.items():
+        start, end = bent.frame(jm[start_role])[0], bent.frame(jm[end_role])[0]
+        chord = (end - start) / np.linalg.norm(end - start)
+        k = names.index(name)
+        axis = quat_rotate(turned[k], np.array([0.0, 0.0, 1.0]))
+        np.testing.assert_allclose(axis, chord, atol=1e-9, err_msg=name)
+        if body.volumes.volumes[k].bone is not None:  # the torso's lower end at the spine joint
+            np.testing.assert_allclose(positions[k] + body.volumes.volumes[k].bone[0] * axis, start, atol=1e-9)
+    # the torso's bones (joints apart): its first one leans off the line when there are several, so a volume
+    # riding that bone alone would not lie along it
+    torso = [sk.index(jm["chest"]), *sk.ancestors(sk.index(jm["chest"]))]
+    torso = torso[:torso.index(spine) + 1][::-1]
+    steps = np.diff(bent.positions[torso], axis=0)
+    steps = steps[np.linalg.norm(steps, axis=1) > 1e-6]
+    chord = bent.positions[torso[-1]] - bent.positions[spine]
+    cosine = steps[0] @ chord / np.linalg.norm(steps[0]) / np.linalg.norm(chord)
+    lean = np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+    assert lean > 5.0 if len(steps) > 1 else lean < 1e-6
+    assert len(steps) == {"unreal": 4, "cmu_motionbuilder": 1, "cmu_3dsmax": 1}.get(convention, len(steps))

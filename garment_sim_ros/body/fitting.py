@@ -16,8 +16,10 @@ with both ends cut a little past the joints: ``a_z`` is chosen so that the cross
 joint is ``JOINT_TAPER`` times the mid-bone one, so neighbouring volumes overlap at the joint
 while the outline keeps narrowing (no bulge past it). The trunk is three stacked ellipsoids
 (pelvis upright from crotch to waist; torso from the spine to the chest joint; chest from the
-chest joint up to the shoulders); the head is a sphere. A segment spanning two bones (CMU's neck:
-Neck -> Neck1 -> Head) rides on its first joint's frame.
+chest joint up to the shoulders); the head is a sphere. A trunk segment spanning several bones
+(CC's torso: Waist -> Spine01 -> Spine02; CMU's neck: Neck -> Neck1 -> Head) rides on its first
+joint's frame aimed at the joint at its top at every pose (``body.aiming``), so it follows the
+chain, not its first bone.
 
 Missing optional roles fall back: no spine -> the torso starts at the pelvis; no neck -> the chest
 stops at the shoulders and the neck volume rides on the chest; no foot, lower arm or hand -> the
@@ -54,6 +56,8 @@ import numpy as np
 
 from ..collision.volumes import ELLIPSOID, SPHERE, Volume, VolumeSet
 from ..transforms import quat_conjugate, quat_from_matrix, quat_multiply, quat_rotate, yaw_quat
+from .aiming import FrameAim, aimed_frame_poses
+from .canonical import MIN_BONE_M
 from .joint_map import validate_joint_map
 from .measurements import BodyMeasurements
 from .narrowing import narrow_for_motion
@@ -202,6 +206,23 @@ class _Fit:
                              (-half - past, half + past))
         return replace(volume, bone=(-half, half)) if bone else volume
 
+    def aim(self, role: str, target: str) -> FrameAim | None:
+        """``role``'s frame aimed at the joint ``target`` when a joint of its own lies between them, off the
+        line's ends (the segment spans several bones: CC's Waist -> Spine01 -> Spine02); else None, the
+        frame's own bone is the segment."""
+        skeleton = self.pose.skeleton
+        start, end = skeleton.index(self.map[role]), skeleton.index(target)
+        path = [end, *skeleton.ancestors(end)]
+        if start not in path:
+            return None
+        between = path[1:path.index(start)]
+        ends = self.pose.positions[[start, end]]
+        if not any(min(np.linalg.norm(self.pose.positions[j] - ends, axis=1)) > MIN_BONE_M for j in between):
+            return None
+        _, rotation = self.pose.frame(self.map[role])
+        direction = quat_rotate(quat_conjugate(rotation), _unit(self.pose.positions[end] - ends[0]))
+        return FrameAim(self.map[role], target, tuple(float(v) for v in direction))
+
     def bone(self, role: str, next_role: str | None, fallback_length: float) -> tuple[np.ndarray, np.ndarray]:
         """Start and end (world) of the segment starting at ``role``."""
         start = self.world(role)
@@ -239,7 +260,8 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
-def _fit_volumes(fit: _Fit, detailed: bool, forearms: bool) -> tuple[list[Volume], dict[str, float], list[str]]:
+def _fit_volumes(fit: _Fit, detailed: bool, forearms: bool
+                 ) -> tuple[list[Volume], list[FrameAim], dict[str, float], list[str]]:
     sides = ("left", "right")
     hip_joints = [fit.local(fit.world(f"{s}_upper_leg")) for s in sides]
     knees = [fit.world(f"{s}_lower_leg") for s in sides]
@@ -290,6 +312,7 @@ def _fit_volumes(fit: _Fit, detailed: bool, forearms: bool) -> tuple[list[Volume
     chest = fit.world("chest")
     spine_start = fit.world(spine_role)
     torso_length = float(np.linalg.norm(chest - spine_start))
+    aims = [fit.aim(spine_role, fit.map["chest"])] if spine_role == "spine" else []
     if torso_length > 1e-6:
         volumes.append(fit.volume("torso", spine_role, spine_start, chest - spine_start, 0.0, torso_length,
                                   WAIST_DEPTH_PER_WIDTH * waist_ry, waist_ry, TRUNK_TAPER, bone=True))
@@ -306,6 +329,7 @@ def _fit_volumes(fit: _Fit, detailed: bool, forearms: bool) -> tuple[list[Volume
     else:  # up to the shoulders, leaving the neck below the head
         chest_top = min(shoulder_top, 0.8 * float(np.dot(head - chest, chest_axis)))
     chest_ry = CHEST_WIDTH_PER_SHOULDER * shoulder_y
+    aims.append(fit.aim("chest", fit.map["neck" if "neck" in fit.map else "head"]))
     volumes.append(fit.volume("chest", "chest", chest, chest_axis, 0.0, chest_top,
                               CHEST_DEPTH_PER_WIDTH * chest_ry, chest_ry, TRUNK_TAPER))
 
@@ -321,6 +345,8 @@ def _fit_volumes(fit: _Fit, detailed: bool, forearms: bool) -> tuple[list[Volume
         neck_role = "neck" if "neck" in fit.map else "chest"
         neck_start = fit.world(neck_role) if neck_role == "neck" else chest + chest_top * chest_axis
         neck_radius = NECK_RADIUS_PER_STATURE * stature
+        if neck_role == "neck":
+            aims.append(fit.aim("neck", fit.map["head"]))
         volumes.append(fit.volume("neck", neck_role, neck_start, head - neck_start, 0.0,
                                   float(np.linalg.norm(head - neck_start)), neck_radius, neck_radius, TRUNK_TAPER))
         for s in sides:
@@ -335,7 +361,7 @@ def _fit_volumes(fit: _Fit, detailed: bool, forearms: bool) -> tuple[list[Volume
     levels = {"stature": stature, "hip_joint_z": hip_joint_z, "leg_x": leg_x, "leg_y": leg_y, "spine_z": spine_z,
               "thigh": float(np.mean(thigh)), "shin": float(np.mean(shin)), "shoulder_z": shoulder_z,
               "shoulder_y": shoulder_y}
-    return volumes, levels, plausible.estimated
+    return volumes, [a for a in aims if a is not None], levels, plausible.estimated
 
 
 def _foot(fit: _Fit, side: str) -> Volume:
@@ -353,7 +379,8 @@ def _foot(fit: _Fit, side: str) -> Volume:
 def _measure(fit: _Fit, volumes: VolumeSet, levels: dict[str, float]) -> BodyMeasurements:
     """Measurements read from the fitted volumes in the rest pose's root frame."""
     by_name = {v.name: v for v in volumes.volumes}
-    positions, rotations = volumes.world_poses(*_frame_poses(fit.pose, volumes.frames))
+    # the rest pose: an aimed frame is as the skeleton has it there
+    positions, rotations = volumes.world_poses(*aimed_frame_poses(fit.pose, volumes.frames))
 
     def placed(name: str):
         k = volumes.names().index(name)
@@ -419,11 +446,6 @@ def _measure(fit: _Fit, volumes: VolumeSet, levels: dict[str, float]) -> BodyMea
     ).items()})
 
 
-def _frame_poses(pose: SkeletonPose, frames: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
-    index = [pose.skeleton.index(f) for f in frames]
-    return pose.positions[index], pose.rotations[index]
-
-
 def fit_body(rest_pose: SkeletonPose, joint_map: Mapping[str, str], detailed: bool = False,
              overrides: BodyOverrides | Mapping | None = None, motion: Sequence[SkeletonPose] = (),
              forearms: bool = False) -> Body:
@@ -445,10 +467,10 @@ def fit_body(rest_pose: SkeletonPose, joint_map: Mapping[str, str], detailed: bo
     if not isinstance(overrides, BodyOverrides):
         overrides = check_overrides({"volumes": overrides} if overrides else None, "overrides")
     fit = _Fit(rest_pose, joint_map)
-    volumes, levels, estimated = _fit_volumes(fit, detailed, forearms)
-    volumes, narrowed = narrow_for_motion(volumes, joint_map, motion, levels["stature"])
+    volumes, aims, levels, estimated = _fit_volumes(fit, detailed, forearms)
+    volumes, narrowed = narrow_for_motion(volumes, joint_map, motion, levels["stature"], aims)
     volumes.sort(key=lambda v: DETAILED_VOLUMES.index(v.name))  # the basic ones first, in BASIC_VOLUMES' order
-    volume_set = VolumeSet(tuple(apply_overrides(volumes, overrides)))
+    volume_set = VolumeSet(tuple(apply_overrides(volumes, overrides)), aims=tuple(aims))
     rest_frames = [rest_pose.frame(f) for f in volume_set.frames]
     volume_set = volume_set.at_rest_in(np.array([p for p, _ in rest_frames]), np.array([q for _, q in rest_frames]))
     return Body(volume_set, _measure(fit, volume_set, levels), joint_map, rest_pose, tuple(estimated), narrowed)

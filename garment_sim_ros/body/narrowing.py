@@ -18,6 +18,7 @@ import numpy as np
 
 from ..collision.volumes import Volume
 from ..transforms import quat_conjugate, quat_multiply, quat_rotate
+from .aiming import FrameAim, aimed_frame_poses
 from .skeleton import SkeletonPose
 
 # Fitting to the motion (``fit_body(motion=...)``). The arm bones (joint-map roles, start and end):
@@ -36,11 +37,12 @@ SCALE_BISECTIONS = 30  # 1e-9 of the scale
 
 
 def narrow_for_motion(volumes: list[Volume], joint_map: Mapping[str, str], motion: Sequence[SkeletonPose],
-                       stature: float) -> tuple[list[Volume], dict[str, float]]:
+                       stature: float, aims: Sequence[FrameAim] = ()) -> tuple[list[Volume], dict[str, float]]:
     """``volumes`` with each trunk volume's cross-section (``radii`` x, y) scaled down so that, in every
     pose of ``motion``, the arm bones stay ``BONE_CLEARANCE`` outside it, but no narrower than
     ``NARROWEST_TRUNK_PER_STATURE``; and the scales used (volume name -> scale < 1). Such a volume is
-    wider than this subject where the arm rests (a slim subject's hand by the hip)."""
+    wider than this subject where the arm rests (a slim subject's hand by the hip). ``aims``: the frames turned
+    onto the spine chain (``body.aiming``), as the volumes will ride them."""
     bones = [(joint_map[a], joint_map[b]) for a, b in ARM_BONES if a in joint_map and b in joint_map]
     if not motion or not bones:
         return volumes, {}
@@ -48,16 +50,16 @@ def narrow_for_motion(volumes: list[Volume], joint_map: Mapping[str, str], motio
     ends = np.array([[skeleton.index(a), skeleton.index(b)] for a, b in bones])
     along = np.linspace(0.0, 1.0, BONE_SAMPLES)[None, None, :, None]
     positions = np.array([pose.positions for pose in motion])  # (P, J, 3)
-    rotations = np.array([pose.rotations for pose in motion])
     starts, stops = positions[:, ends[:, 0], None, :], positions[:, ends[:, 1], None, :]
     points = (starts + along * (stops - starts)).reshape(len(motion), -1, 3)  # (P, B * samples, 3) world
     narrowed: dict[str, float] = {}
     result = []
     for volume in volumes:
         if volume.name in NARROWEST_TRUNK_PER_STATURE:
-            frame = skeleton.index(volume.frame)
-            centre = positions[:, frame] + quat_rotate(rotations[:, frame], np.asarray(volume.offset_position))
-            to_local = quat_conjugate(quat_multiply(rotations[:, frame], np.asarray(volume.offset_rotation)))
+            frame_poses = [aimed_frame_poses(pose, (volume.frame,), aims) for pose in motion]
+            origins, rotations = np.array([p[0] for p, _ in frame_poses]), np.array([q[0] for _, q in frame_poses])
+            centre = origins + quat_rotate(rotations, np.asarray(volume.offset_position))
+            to_local = quat_conjugate(quat_multiply(rotations, np.asarray(volume.offset_rotation)))
             local = quat_rotate(to_local[:, None, :], points - centre[:, None, :]).reshape(-1, 3)
             narrowest = NARROWEST_TRUNK_PER_STATURE[volume.name] * stature / volume.radii[1]
             scale = max(min(1.0, narrowest), _cross_section_scale(volume, local, BONE_CLEARANCE))

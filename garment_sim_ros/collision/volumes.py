@@ -91,6 +91,9 @@ class VolumeSet:
     # xyzw quaternions (V, 4), world frame; None: unknown. Which volumes are disjoint there decides which may be
     # pressed together in motion (``collision.contact_planes``); without them no pair is.
     rest_poses: tuple[np.ndarray, np.ndarray] | None = field(default=None, compare=False, repr=False)
+    # frames turned onto a joint of the spine chain at every pose (``body.aiming.FrameAim``): the poses given to
+    # ``world_poses`` are ``body.aiming.aimed_frame_poses``'; empty: every frame as the skeleton has it
+    aims: tuple = ()
     frames: tuple[str, ...] = field(init=False)  # distinct skeleton frames, in first-use order
     frame_index: np.ndarray = field(init=False)  # (V,) index into ``frames``
     kinds: np.ndarray = field(init=False)  # (V,) int64
@@ -129,7 +132,7 @@ class VolumeSet:
 
     def at_rest_in(self, frame_positions: np.ndarray, frame_rotations: np.ndarray) -> VolumeSet:
         """The same volumes, with ``rest_poses`` the poses the frames (``self.frames``' order) put them in."""
-        return VolumeSet(self.volumes, self.world_poses(frame_positions, frame_rotations))
+        return VolumeSet(self.volumes, self.world_poses(frame_positions, frame_rotations), self.aims)
 
     def names(self) -> list[str]:
         return [v.name for v in self.volumes]

@@ -17,7 +17,8 @@ from ..params import DEFAULT_PARAMS, PARAMETER_TABLE, ParameterError
 
 HELP = ("Read a BVH clip (converted to REP-103 z-up metres) and print the detected joint map, the body "
         "volumes fitted to its skeleton in the canonical standing pose and to its first pose (trunk volumes an arm "
-        "bone comes near are narrowed), the measurements estimated and clip info "
+        "bone comes near are narrowed; a trunk volume spanning several spine bones is aimed at the joint at its top), "
+        "the measurements estimated and clip info "
         "(frames, fps, duration, mean horizontal pelvis speed) with the joint glitches replaced on reading.")
 
 _KIND_LABELS = {code: label for label, code in KIND_NAMES.items()}
@@ -58,6 +59,7 @@ def root_speed(clip: Clip, pelvis: str) -> float:
 
 
 def summary(clip: Clip, body: Body) -> dict:
+    aimed_at = {aim.frame: aim.target for aim in body.volumes.aims}
     return {
         "file": clip.path,
         "joint_map": dict(body.joint_map),
@@ -65,7 +67,8 @@ def summary(clip: Clip, body: Body) -> dict:
             {"name": v.name, "kind": _KIND_LABELS[v.kind], "frame": v.frame,
              "radii": [round(r, 4) for r in v.radii],
              "cut": [round(c, 4) if np.isfinite(c) else None for c in v.cut],
-             "offset_position": [round(c, 4) for c in v.offset_position]}
+             "offset_position": [round(c, 4) for c in v.offset_position],
+             "aimed_at": aimed_at.get(v.frame)}
             for v in body.volumes.volumes
         ],
         "frames": clip.frames,
@@ -99,7 +102,8 @@ def _print_text(info: dict) -> None:
     print("volumes (radii in cm):")
     for v in info["volumes"]:
         radii = " ".join(f"{100 * r:5.1f}" for r in v["radii"])
-        print(f"  {v['name']:<16} {v['kind']:<9} on {v['frame']:<16} {radii}")
+        aim = f"  aimed at {v['aimed_at']}" if v["aimed_at"] else ""
+        print(f"  {v['name']:<16} {v['kind']:<9} on {v['frame']:<16} {radii}{aim}")
     print("measurements (m, root frame):")
     for key, value in info["measurements"].items():
         print(f"  {key:<13} {value:7.3f}")
