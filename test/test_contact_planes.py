@@ -58,18 +58,23 @@ SPHERE_A = Volume("a", SPHERE, "fa", (0.1, 0.1, 0.1))
 SPHERE_B = Volume("b", SPHERE, "fb", (0.06, 0.06, 0.06))
 
 
+def _assert_faces_either_side(collider, *, plane: float, distance: float) -> None:
+    """The pair's two faces are square to x, epsilon either side of x = ``plane`` (m): the first volume (at the
+    origin) keeps x <= plane - eps, the second (centre at x = ``distance``) x >= plane + eps."""
+    (normal_a, offset_a), = _faces(collider)[0]
+    (normal_b, offset_b), = _faces(collider)[1]
+    np.testing.assert_allclose(normal_a, [1.0, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(normal_b, [-1.0, 0.0, 0.0], atol=1e-12)
+    assert offset_a == pytest.approx(plane - EPS)
+    assert -offset_b == pytest.approx(plane + EPS - distance)
+
+
 def test_spheres_pressed_together_meet_on_a_plane_between_their_shares():
     """Radii 10 and 6 cm, centres 13 cm apart: 3 cm of overlap, the plane dividing the centres' distance
     13 : 10 / 16 -- at x = 8.125 cm -- each face epsilon short of it."""
     collider = _pressed_pair(SPHERE_A, SPHERE_B, 0.13)
     assert collider.pressed_depth == pytest.approx(0.03)
-    (normal_a, offset_a), = _faces(collider)[0]
-    (normal_b, offset_b), = _faces(collider)[1]
-    plane = 0.13 * 0.1 / 0.16
-    np.testing.assert_allclose(normal_a, [1.0, 0.0, 0.0], atol=1e-12)
-    np.testing.assert_allclose(normal_b, [-1.0, 0.0, 0.0], atol=1e-12)
-    assert offset_a == pytest.approx(plane - EPS)  # a keeps x <= plane - eps
-    assert -offset_b == pytest.approx(plane + EPS - 0.13)  # b (centre at 0.13) keeps x >= plane + eps
+    _assert_faces_either_side(collider, plane=0.13 * 0.1 / 0.16, distance=0.13)
 
 
 @pytest.mark.parametrize("start, end", [
@@ -147,12 +152,8 @@ def test_a_limb_lying_along_the_trunk_meets_it_on_a_plane():
     limb = Volume("limb", ELLIPSOID, "fl", (0.04, 0.04, 0.2), bone=(-0.15, 0.15))
     collider = _pressed_pair(trunk, limb, 0.14)
     assert collider.pressed_depth == pytest.approx(0.02)
-    (normal_a, offset_a), = _faces(collider)[0]
-    (normal_b, offset_b), = _faces(collider)[1]
     plane = 0.14 * 0.12 / 0.16
-    np.testing.assert_allclose(normal_a, [1.0, 0.0, 0.0], atol=1e-12)
-    np.testing.assert_allclose(normal_b, [-1.0, 0.0, 0.0], atol=1e-12)
-    assert offset_a == pytest.approx(plane - EPS) and -offset_b == pytest.approx(plane + EPS - 0.14)
+    _assert_faces_either_side(collider, plane=plane, distance=0.14)
     start = (0.11, 0.0, 0.05)  # 8 mm deep in either uncut volume
     assert 0.12 * np.sqrt(1.0 - (0.05 / 0.3) ** 2) - 0.11 > 0.008 and 0.04 * np.sqrt(1.0 - 0.25 ** 2) - 0.03 > 0.008
     x = _handled(collider, start, start)
