@@ -17,6 +17,7 @@ from garment_sim_ros.body.sources import bvh_source
 from garment_sim_ros.cloth.garments import GARMENT_NAMES
 from garment_sim_ros.collision.collider import Collider
 from garment_sim_ros.commands.evaluate import Run, evaluate_run
+from garment_sim_ros.commands.simulate import simulate_frames
 from garment_sim_ros.dressing import make_character
 from garment_sim_ros.params import preset
 from garment_sim_ros.transforms import quat_to_matrix
@@ -69,6 +70,21 @@ def test_cloth_between_a_forearm_along_the_hip_and_the_pelvis_has_a_place_outsid
     collider.handle_all(squeezed.copy(), x, np.zeros_like(x), np.ones(len(x)), 1.0 / 60.0, collider.new_contacts())
     assert collider.penetration_depths(x).max() == 0.0
     assert np.linalg.norm(x - squeezed, axis=1).max() < 0.005
+
+
+def test_a_forearm_at_the_hip_does_not_stay_caught_under_the_waistband():
+    """Issue 11, the CC jump, short skirt, 1x at 60 fps: from 1.08 s the right hand is at the hip and the
+    forearm reaches the skirt's row under the waistband, whose triangles have an attached corner. Left as
+    they were, the bone stayed through that row to the clip's end (116 frames of 180), the skirt caught on
+    the forearm after the hand left the hip; their free corners taken to the band's side of the bone
+    (``crossing._attached_side``), it is through for 19 frames, 1.08-1.38 s, and never after 1.5 s."""
+    source = bvh_source(str(DATA / "cc_cmu_02_04_jump_balance.bvh"), loop=False)
+    character = make_character(source.rest_pose, source.joint_map, ["short_skirt"], preset("si"),
+                               motion=source.fit_poses())
+    through = [reports[0].bones_through for _, _, reports in simulate_frames(source, character, np.arange(121) / 60.0)
+               if reports is not None]
+    assert len(through) == 120 and any(through[60:90])  # the hand at the hip
+    assert not any(through[90:])
 
 
 def test_a_thigh_raised_against_the_belly_does_not_throw_the_skirt():

@@ -9,7 +9,10 @@ the garment's triangles at the substep's end. A crossed triangle goes back to th
 it was on at the substep's start (``_side_direction``: the continuous information the end state
 lacks), with the least move that takes the bone out of it seen along the bone: each corner short
 of ``eps`` on that side goes there, a corner already there stays; a corner so moved that is inside
-the limb goes out across its surface radially, so it stays on its side.
+the limb goes out across its surface radially, so it stays on its side. A triangle with an attached
+corner (the row under a waistband) cannot go back that way: when the bone reaches it, its free corners
+go to the side of the bone its attached corners are on (``_attached_side``; a forearm at the hip, CC
+jump: the skirt no longer stays caught on it, issue 11).
 
 Priority in a pinch (a forearm on the hip, an arm against the chest: two volumes overlap and
 squeeze the cloth): the cloth goes no further than where the other volume begins (``_room``), and a
@@ -164,6 +167,48 @@ def _side_direction(vol, v, z, triangles, t, u, w, xs, x, corners, clearance):
 
 
 @kernel
+def _cost_keeping_attached(triangles, t, inv_mass, corners, ux, uy, clearance):
+    """``_clearing``'s cost of the side (ux, uy) for triangle t (``corners`` (3, 3): local), or inf when an
+    attached corner is short of ``clearance`` along it: it rides on the body and cannot move there."""
+    for k in range(3):
+        if inv_mass[triangles[t, k]] == 0.0 and corners[k, 0] * ux + corners[k, 1] * uy < clearance:
+            return math.inf
+    return _clearing(corners, ux, uy, clearance)
+
+
+@kernel
+def _attached_side(triangles, t, inv_mass, corners, clearance):
+    """Unit local direction (ux, uy) towards the side of the bone triangle t's attached corners are on
+    (``corners`` (3, 3): its corners, local, at the end pose), and whether every attached corner lies
+    ``clearance`` or more along it. The attached corners cannot move, so the free ones go to their side:
+    the triangle stays on the body's side of the bone it rides on. Tried: each attached corner's own
+    direction and, with two, the side of their edge away from the axis; the one costing least."""
+    best, best_x, best_y = math.inf, 1.0, 0.0
+    previous = -1
+    for k in range(3):
+        if inv_mass[triangles[t, k]] != 0.0:
+            continue
+        length = math.sqrt(corners[k, 0] ** 2 + corners[k, 1] ** 2)
+        if length > _TINY:
+            ux, uy = corners[k, 0] / length, corners[k, 1] / length
+            cost = _cost_keeping_attached(triangles, t, inv_mass, corners, ux, uy, clearance)
+            if cost < best:
+                best, best_x, best_y = cost, ux, uy
+        if previous >= 0:
+            ex, ey = corners[k, 0] - corners[previous, 0], corners[k, 1] - corners[previous, 1]
+            length = math.sqrt(ex * ex + ey * ey)
+            if length > _TINY:
+                ux, uy = ey / length, -ex / length
+                if ux * corners[k, 0] + uy * corners[k, 1] < 0.0:  # away from the axis
+                    ux, uy = -ux, -uy
+                cost = _cost_keeping_attached(triangles, t, inv_mass, corners, ux, uy, clearance)
+                if cost < best:
+                    best, best_x, best_y = cost, ux, uy
+        previous = k
+    return best_x, best_y, best < math.inf
+
+
+@kernel
 def _room(vol, v, lx, ly, lz, ux, uy, length):
     """How far from volume v's local point l the cloth can go along the local (ux, uy, 0), up to
     ``length``, before it enters another volume; a volume l is inside already (the neighbour at a joint)
@@ -192,17 +237,26 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
     goes there -- the least move that takes the bone out of the triangle, seen along the bone; a corner
     already on that side stays. A corner so moved that is inside v goes out across v's surface, radially
     (it stays on its side), but not into another volume (``_room``: a pinch); an approaching velocity
-    relative to v's surface is removed. A triangle with an attached corner is left as it is (it rides on
-    the body), and so is one that would end with a corner deeper than ``pinch_depth`` in another volume:
-    where two volumes overlap more than that round a bone there is no room for cloth, and contact wins.
+    relative to v's surface is removed. A triangle with an attached corner (it rides on the body) goes to
+    the side its attached corners are on (``_attached_side``) when the bone reached it in this substep; one
+    caught already, or whose attached corners straddle the bone, is left as it is, and so is one that would
+    end with a corner deeper than ``pinch_depth`` in another volume: where two volumes overlap more than
+    that round a bone there is no room for cloth, and contact wins.
     Returns whether it moved."""
-    if inv_mass[triangles[t, 0]] == 0.0 or inv_mass[triangles[t, 1]] == 0.0 or inv_mass[triangles[t, 2]] == 0.0:
-        return False  # it rides on the body with its attached corner: moving the others would only tear it
     pos1, rot1 = vol.pos1, vol.rot1
     for k in range(3):
         i = triangles[t, k]
         corners[k, 0], corners[k, 1], corners[k, 2] = to_local(pos1, rot1, v, x[i, 0], x[i, 1], x[i, 2])
-    ux, uy = _side_direction(vol, v, z, triangles, t, u, w, xs, x, corners, eps)
+    if inv_mass[triangles[t, 0]] == 0.0 or inv_mass[triangles[t, 1]] == 0.0 or inv_mass[triangles[t, 2]] == 0.0:
+        if _crossed_at_start(vol, v, xs, triangles[t, 0], triangles[t, 1], triangles[t, 2]):
+            # caught before this substep: its free neighbours hold it (their side, by continuity); moved, it
+            # would pass back and forth with them (CC jump, short skirt, 2x 60 fps: 11 -> 88 frames)
+            return False
+        ux, uy, clear = _attached_side(triangles, t, inv_mass, corners, eps)
+        if not clear:
+            return False  # its attached corners straddle the bone: no move of the free ones clears it
+    else:
+        ux, uy = _side_direction(vol, v, z, triangles, t, u, w, xs, x, corners, eps)
     for k in range(3):  # where each corner goes, in the simulation frame (corners[k] is then world)
         lx, ly, lz = corners[k, 0], corners[k, 1], corners[k, 2]
         short = eps - (lx * ux + ly * uy)
