@@ -80,9 +80,13 @@ def test_node_dresses_the_walking_character_and_publishes_its_garments(graph, tm
                 "legs_off", "structural_stretch_p99", "structural_stretch_max", "shear_stretch_p99",
                 "shear_stretch_max", "quality_rate_hz", "quality_frames"):
         assert key in values, key
-    # the quality figures come from the frames measured at quality_rate_hz (10 Hz: 1 in 6 at 60 fps)
+    # the quality figures come from the frames measured at quality_rate_hz (10 Hz: 1 in 6 at 60 fps); the
+    # throttle is in body time, so a node starved below 10 fps (a loaded machine: 4 frames in the window) measures
+    # every frame, and only a node running faster than twice the rate must have skipped some
     assert float(values["quality_rate_hz"]) == 10.0
-    assert 0 < float(values["quality_frames"]) < float(values["frames"])
+    assert 0 < float(values["quality_frames"]) <= float(values["frames"])
+    if float(values["fps"]) > 20.0:
+        assert float(values["quality_frames"]) < float(values["frames"])
     assert float(values["structural_stretch_max"]) >= float(values["structural_stretch_p99"]) >= 0.9
     assert float(values["max_penetration_mm"]) < 3.0
     assert float(values["fps"]) > 0.0 and float(values["substeps"]) >= 1.0
