@@ -52,6 +52,16 @@ class Param:
             return tuple(self._check_number(v, float) for v in value)
         return self._check_number(value, expected)
 
+    def parse(self, text: str) -> Any:
+        """The value written as ``text`` on a command line (a tuple's numbers comma-separated), checked."""
+        if isinstance(self.default, str):
+            return self.check(text)
+        try:
+            numbers = [float(part) for part in text.split(",")]
+        except ValueError:
+            raise ParameterError(f"{self.name}: got {text!r}; allowed: {self.allowed()}") from None
+        return self.check(numbers if isinstance(self.default, tuple) else numbers[0] if len(numbers) == 1 else text)
+
     def _check_number(self, value: Any, kind: type) -> Any:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ParameterError(f"{self.name}: got {value!r} ({type(value).__name__}); allowed: {self.allowed()}")

@@ -294,3 +294,36 @@ def test_evaluate_reports_cloth_moved_through_the_legs_as_failing_b():
     assert result["bones_frames"] == 6 and result["bones_max"] >= 2  # both thighs, every frame
     assert result["legs_off_frames"] == 6
     assert result["targets"]["b"] is False and result["targets"]["c"] is False and not result["passed"]
+
+
+def test_evaluate_param_changes_the_parameters_of_every_run_and_refuses_bad_values():
+    import argparse
+
+    from garment_sim_ros.commands.evaluate import add_arguments, evaluate_run, plan
+
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    args = parser.parse_args([str(CLIP), "--garments", "pants,short_skirt", "--duration", "0.05",
+                              "--param", "collision_epsilon=0.005", "--param", "gravity=0,0,-5",
+                              "--param", "strain_limit_iterations=6", "--param", "collision_mode=static"])
+    runs = plan(args)
+    changes = {"collision_epsilon": 0.005, "gravity": (0.0, 0.0, -5.0), "strain_limit_iterations": 6,
+               "collision_mode": "static"}
+    assert len(runs) == 2 and all(dict(run.params) == changes for run in runs)
+    worn = []
+    evaluate_run(runs[1], after_dressing=lambda character: worn.extend(s.params for s in character.solvers))
+    assert len(worn) == 1 and {name: getattr(worn[0], name) for name in changes} == changes
+    assert worn[0].friction == DEFAULT_PARAMS.friction  # the others stay the preset's
+
+    for text, message in [("contact_margin=0.2", r"contact_margin: got 0.2; allowed: \[0.0, 0.05\] m"),
+                          ("strain_limit_iterations=1.5", "strain_limit_iterations: .*a whole number"),
+                          ("gravity=0,1", "gravity: .*a list of 3 numbers"),
+                          ("collision_mode=fast", "collision_mode: .*one of adaptive"),
+                          ("friction=high", r"friction: got 'high'; allowed: \[0.0, 100.0\]"),
+                          ("bogus=1", "unknown parameter 'bogus'"), ("friction", "expected NAME=VALUE")]:
+        with pytest.raises(ValueError, match=message):
+            plan(parser.parse_args([str(CLIP), "--param", text]))
+    result = subprocess.run([sys.executable, "-m", "garment_sim_ros.cli", "evaluate", str(CLIP), "--param",
+                             "contact_margin=0.2"], capture_output=True, text=True, timeout=600)
+    assert result.returncode == 2 and "contact_margin: got 0.2; allowed: [0.0, 0.05] m" in result.stderr
+    assert "Traceback" not in result.stderr

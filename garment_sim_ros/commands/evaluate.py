@@ -27,7 +27,7 @@ from typing import Callable
 import numpy as np
 
 from ..cloth.garments import GARMENT_NAMES
-from ..params import PRESETS
+from ..params import PARAMETER_TABLE, PRESETS, ParameterError, preset
 from ..quality import TARGETS
 from .simulate import DECIMATE_HELP, GARMENTS_HELP
 
@@ -51,6 +51,7 @@ class Run:
     resolution: float = 1.0
     decimate: int | None = None  # a mesh file's vertex budget (--decimate)
     forearms: bool = True  # the body's forearm volumes (``make_character``); False: the memo's 10 volumes
+    params: tuple[tuple[str, object], ...] = ()  # (name, value) changes to the preset (--param)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -68,6 +69,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--preset", default="si", choices=sorted(PRESETS), help="parameter preset")
     parser.add_argument("--no-forearms", action="store_true",
                         help="the memo's 10 volumes for the skirts and trousers (default: plus the forearms)")
+    parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                        help="change a solver parameter of the preset for every run (repeatable; a vector's numbers "
+                             "comma-separated, gravity=0,0,-9.81); checked against the parameter table's range")
     parser.add_argument("--json", action="store_true", help="one JSON object per run, then a summary object")
 
 
@@ -79,6 +83,22 @@ def _numbers(option: str, text: str) -> list[float]:
     if not values or not all(math.isfinite(v) and v > 0 for v in values):
         raise ValueError(f"{option}: every value must be a number > 0, got {text!r}")
     return values
+
+
+def parse_params(texts: list[str], preset_name: str = "si") -> tuple[tuple[str, object], ...]:
+    """``--param NAME=VALUE`` options as (name, value) pairs, each checked against ``params.PARAMETER_TABLE``
+    (``ParameterError`` names the parameter and its range; a later option for the same name wins)."""
+    changes = {}
+    for text in texts:
+        name, equals, value = text.partition("=")
+        name = name.strip()
+        if not equals or not name:
+            raise ValueError(f"--param: expected NAME=VALUE, got {text!r}")
+        if name not in PARAMETER_TABLE:
+            raise ParameterError(f"--param: unknown parameter {name!r}; known: {', '.join(PARAMETER_TABLE)}")
+        changes[name] = PARAMETER_TABLE[name].parse(value.strip())
+    preset(preset_name).replace(**changes)  # the whole set checked as the runs will build it
+    return tuple(changes.items())
 
 
 def plan(args) -> list[Run]:
@@ -95,8 +115,9 @@ def plan(args) -> list[Run]:
     for clip in args.clips:
         if not Path(clip).is_file():
             raise ValueError(f"no such clip: {clip}")
+    changes = parse_params(args.param, args.preset)
     return [Run(clip, garment, speed, fps, args.duration, args.preset, args.resolution, args.decimate,
-                not args.no_forearms)
+                not args.no_forearms, changes)
             for clip in args.clips for garment in garments for speed in speeds for fps in rates]
 
 
@@ -122,11 +143,10 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
     ``after_dressing(character)`` is called once the garments are on (a test moves the cloth there)."""
     from ..body.sources import bvh_source
     from ..dressing import make_character
-    from ..params import preset
     from .simulate import simulate_frames
 
     tic = time.perf_counter()
-    params = preset(run.preset)
+    params = preset(run.preset).replace(**dict(run.params))
     source = bvh_source(run.clip, loop=False, speed=run.speed, params=params)
     character = make_character(source.rest_pose, source.joint_map, run.garment.split("+"), params,
                                run.resolution, decimate_to=run.decimate, motion=source.fit_poses(),
