@@ -321,6 +321,44 @@ def test_loop_without_time_to_catch_up_crosses_the_gap_in_one_frame_and_reports_
     assert all(np.all(np.isfinite(p)) for p in loop.character.world_positions())
 
 
+def test_a_step_gone_bad_in_a_catch_up_piece_is_counted_not_dropped(monkeypatch):
+    """A frame that follows a gap in several pieces reports its last piece; a step the guard restored in an
+    earlier piece (a loaded machine catches up often) was dropped from the diagnostics' ``solver_restored``."""
+    import dataclasses
+
+    from garment_sim_ros.cloth.solver import GarmentSolver
+    from garment_sim_ros.runtime.frame_stats import FrameStats
+
+    advance, poisoned = GarmentSolver.advance, []
+
+    def poison_once(solver, frame):
+        if not poisoned:
+            poisoned.append(frame.t1)
+            frame = dataclasses.replace(frame, root_acceleration=np.array([math.nan, 0.0, 0.0]))
+        return advance(solver, frame)
+
+    buffer = PoseBuffer("world", max_age_s=0.2)
+    loop = CharacterLoop(buffer, DEFAULT_PARAMS, ["pants"], 1.0, catch_up_wall_s=math.inf)
+    t = 1.0
+    while loop.status != Status.RUNNING or loop.character is None:
+        feed(buffer, t)
+        loop.frame(t)
+        t += 1 / 60
+    for _ in range(30):  # a 0.5 s gap: held
+        loop.frame(t)
+        t += 1 / 60
+    assert loop.status == Status.HOLDING
+    monkeypatch.setattr(GarmentSolver, "advance", poison_once)
+    feed(buffer, t)
+    result = loop.frame(t)
+    stats = FrameStats()
+    stats.record_frame(result.reports, result.frame_s, result.penetration_m, result.measured,
+                       result.catch_up_recoveries)
+    assert result.frame_s > 0.25 and poisoned and poisoned[0] < t  # the first piece went bad, not the last
+    assert not result.reports[0].recovery and result.catch_up_recoveries == ("restored",)
+    assert stats.recoveries["restored"] == 1
+
+
 # ------------------------------------------------------------------------------------ parameters and files
 def test_params_file_watch_applies_a_change_and_refuses_a_broken_file(graph, tmp_path):
     path = tmp_path / "tuning.yaml"

@@ -278,13 +278,14 @@ class GarmentSimNode(Node):
         tic = time.perf_counter()
         member.hold(result, self._namespace(member), self.values)  # stamped with the pose's time
         publish_s = time.perf_counter() - tic
-        member.stats.record_frame(result.reports, result.frame_s, result.penetration_m, result.measured)
-        recovered = [(solver.model.name, report.recovery)
+        member.stats.record_frame(result.reports, result.frame_s, result.penetration_m, result.measured,
+                                  result.catch_up_recoveries)
+        recovered = [f"{member.prefix}{solver.model.name} {report.recovery}"
                      for solver, report in zip(member.loop.character.solvers, result.reports) if report.recovery]
+        recovered += [f"{member.prefix}{what} while catching up" for what in result.catch_up_recoveries]
         if recovered:
             self.log_throttled("warning", "solver_recovery",
-                               "a garment step went bad (counted in diagnostics as solver_*): "
-                               + ", ".join(f"{member.prefix}{name} {what}" for name, what in recovered))
+                               "a garment step went bad (counted in diagnostics as solver_*): " + ", ".join(recovered))
         member.stats.record_publish(publish_s)
         if self.rerun is not None and member is self.members[0]:  # Rerun records the first character
             self._log_rerun(result, member.held[0], publish_s)

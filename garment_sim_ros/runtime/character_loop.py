@@ -114,6 +114,9 @@ class FrameResult:
     penetration_m: float  # deepest free garment point inside a volume after the frame, m; nan when not measured
     dressed: bool  # this frame put the garments on (first skeleton, new garments, after a gap)
     measured: bool = True  # the quality meters ran: the reports' quality figures and penetration_m are this frame's
+    # the solver guard's events (``FrameReport.recovery``) of the catch-up pieces before the last, one per event:
+    # the frame's reports are its last piece's, and a step restored in an earlier piece is counted all the same
+    catch_up_recoveries: tuple[str, ...] = ()
 
 
 class CharacterLoop:
@@ -251,6 +254,7 @@ class CharacterLoop:
         self._catching_up = pieces > 1  # the next frame spans this one's catch-up compute: catch up too
         self._just_dressed = False
         start = self.last_time
+        catch_up_recoveries: list[str] = []
         for k in range(1, pieces + 1):
             # out of time for catching up (a busy machine): the rest in one frame, which lags (reported)
             last = k == pieces or time.perf_counter() - tic > self.catch_up_wall_s
@@ -276,10 +280,12 @@ class CharacterLoop:
             self.last_time = t
             if last:
                 break
+            catch_up_recoveries += [r.recovery for r in reports if r.recovery]
         step_s = time.perf_counter() - tic
         self._running(time_s)
         penetration_m = max((r.max_depth_m for r in reports), default=0.0) if measured else math.nan
-        return FrameResult(time_s, sample.pose, reports, frame_s, step_s, penetration_m, False, measured)
+        return FrameResult(time_s, sample.pose, reports, frame_s, step_s, penetration_m, False, measured,
+                           tuple(catch_up_recoveries))
 
     def _note_glitches(self) -> None:
         """The joint glitches the buffer dropped since the last frame: logged (throttled; counted there)."""

@@ -69,10 +69,12 @@ class FrameStats:
         self._tick_s += compute_s
 
     def record_frame(self, reports: Sequence[FrameReport], frame_s: float, penetration_m: float,
-                     measured: bool = True) -> None:
+                     measured: bool = True, catch_up_recoveries: Sequence[str] = ()) -> None:
         """A simulated frame: the garments' reports (none for a dressing frame), the body time it
         covered, the deepest penetration after it; ``measured``: its quality figures and penetration were
-        measured (``FrameResult.measured``), else they are not this frame's and are left out."""
+        measured (``FrameResult.measured``), else they are not this frame's and are left out;
+        ``catch_up_recoveries``: the guard's events in the frame's catch-up pieces before the last
+        (``FrameResult.catch_up_recoveries``), counted with the reports'."""
         self._frames += 1
         self.total_frames += 1
         if measured:
@@ -82,6 +84,7 @@ class FrameStats:
             return
         self._stepped += 1
         self.recoveries.update(r.recovery for r in reports if r.recovery)
+        self.recoveries.update(catch_up_recoveries)
         self.recoveries.update(["carried"] * sum(r.carried for r in reports))  # garment frames carried after one
         self._substeps += max(r.substeps for r in reports)
         self._stages["integration"] += sum(r.integration_s for r in reports)
