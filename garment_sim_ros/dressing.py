@@ -45,7 +45,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .body.aiming import aimed_frame_poses
+from .body.aiming import aimed_frame_poses, volume_poses
 from .body.canonical import local_transforms
 from .body.fitting import fit_body
 from .body.overrides import BodyOverrides
@@ -417,9 +417,8 @@ class DressedCharacter:
             return False
         report = FrameReport()
         position, yaw = root_frame(pose, self.joint_map)
-        volumes = self.body.volumes
         self._meters[row].measure(report, solver, solver.world_positions(position, yaw), pose,
-                                  *volumes.world_poses(*self._frame_poses(pose, volumes.frames)))
+                                  *volume_poses(self.body.volumes, pose))
         if not self._is_clean(report):
             return False
         self._keep_clean(row, pose, position, yaw)
@@ -447,10 +446,9 @@ class DressedCharacter:
     def measure(self, reports: Sequence[FrameReport], pose: SkeletonPose) -> None:
         """Fill the reports' quality figures (``garment_sim_ros.quality``: depth, limb bones through the
         cloth, trouser legs off, stretch) for the garments as they are now, at ``pose``."""
-        volumes = self.body.volumes
-        volume_poses = volumes.world_poses(*self._frame_poses(pose, volumes.frames))
+        centres, rotations = volume_poses(self.body.volumes, pose)
         for meter, solver, report, positions in zip(self._meters, self.solvers, reports, self.world_positions()):
-            meter.measure(report, solver, positions, pose, *volume_poses)
+            meter.measure(report, solver, positions, pose, centres, rotations)
         if len(self.solvers) > 1:
             for report, crossings in zip(reports, self.layer_crossings()):
                 report.layer_crossings = crossings

@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .body.aiming import volume_poses
 from .collision.volumes import KIND_NAMES
-from .rerun_log import volume_poses
 
 FORMAT_VERSION = 2  # 2: joint_aims, joint_aim_directions
 _KIND_TEXT = {code: name for name, code in KIND_NAMES.items()}

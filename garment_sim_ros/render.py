@@ -17,10 +17,11 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from .body.aiming import volume_poses
 from .collision.contact_planes import press, pressable_pairs
 from .collision.volume_arrays import VolumeArrays
 from .collision.volumes import CAPSULE, ELLIPSOID, SPHERE, VolumeSet
-from .rerun_log import skeleton_segments, volume_poses
+from .rerun_log import skeleton_segments
 from .shading import BODY_RGB, DEFAULT_LIGHT_DIR, SKELETON_RGB, shade
 from .transforms import quat_rotate, quat_to_matrix
 

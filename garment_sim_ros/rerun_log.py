@@ -42,7 +42,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from .body.aiming import aimed_frame_poses
+from .body.aiming import volume_poses
 from .collision.volumes import CAPSULE, ELLIPSOID, VolumeSet
 from .quality import report_scalars
 from .shading import BODY_RGB, DEFAULT_LIGHT_DIR, SKELETON_RGB, garment_color, shade
@@ -380,11 +380,6 @@ def skeleton_segments(pose) -> np.ndarray:
     parents = np.asarray(pose.skeleton.parents)
     children = np.flatnonzero(parents >= 0)
     return np.stack([pose.positions[parents[children]], pose.positions[children]], axis=1)
-
-
-def volume_poses(volumes: VolumeSet, pose) -> tuple[np.ndarray, np.ndarray]:
-    """Every volume's centre (V, 3) and rotation (V, 4) xyzw in the world at a ``SkeletonPose``."""
-    return volumes.world_poses(*aimed_frame_poses(pose, volumes.frames, volumes.aims))
 
 
 def volume_ellipsoids(volumes: VolumeSet, pose) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

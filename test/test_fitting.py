@@ -375,10 +375,10 @@ def test_the_torso_lies_along_the_real_cc_spine_and_the_skirt_rides_that_torso(c
     (issue 11). Aimed at the chest joint it lies along the chain at every frame, and the garments' solver
     (their volumes and a skirt's waistband on the spine segment) rides that same torso, the one measured and
     shown."""
+    from garment_sim_ros.body.aiming import volume_poses
     from garment_sim_ros.body.sources import bvh_source
     from garment_sim_ros.dressing import make_character
     from garment_sim_ros.params import DEFAULT_PARAMS
-    from garment_sim_ros.rerun_log import volume_poses
 
     source = bvh_source(str(DATA / clip_name), loop=False)
     character = make_character(source.rest_pose, source.joint_map, ["short_skirt"], DEFAULT_PARAMS,

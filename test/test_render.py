@@ -187,12 +187,12 @@ def test_pressed_volumes_are_drawn_flat_where_they_meet_and_no_longer_overlap():
     # the CC walk at 1.9 s: a forearm on the hip and the thighs pass; the solver keeps the cloth out of the
     # volumes cut by their contact planes, and the picture draws that body: each volume of a pressed pair lies
     # outside the other as pressed, where uncut they overlap by centimetres
+    from garment_sim_ros.body.aiming import volume_poses
     from garment_sim_ros.body.fitting import fit_body
     from garment_sim_ros.body.sources import bvh_source
     from garment_sim_ros.collision.contact_planes import pressable_pairs
     from garment_sim_ros.collision.geometry import penetration_depth, to_local
     from garment_sim_ros.render import contact_planes_at, volume_meshes
-    from garment_sim_ros.rerun_log import volume_poses
     from garment_sim_ros.transforms import quat_to_matrix
 
     source = bvh_source(str(Path(__file__).parent / "data" / "cc_cmu_07_01_walk.bvh"), loop=False)

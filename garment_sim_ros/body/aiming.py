@@ -18,6 +18,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..collision.volumes import VolumeSet
 from ..transforms import quat_between, quat_multiply, quat_rotate
 from .skeleton import SkeletonPose
 
@@ -50,3 +51,9 @@ def aimed_frame_poses(pose: SkeletonPose, frames: Sequence[str], aims: Sequence[
             was = quat_rotate(rotations[row], np.asarray(aim.direction))
             rotations[row] = quat_multiply(quat_between(was, towards), rotations[row])
     return positions, rotations
+
+
+def volume_poses(volumes: VolumeSet, pose: SkeletonPose) -> tuple[np.ndarray, np.ndarray]:
+    """Every volume's centre (V, 3) and rotation (V, 4) xyzw in the world at ``pose``, on its frame aimed as
+    ``volumes.aims`` says."""
+    return volumes.world_poses(*aimed_frame_poses(pose, volumes.frames, volumes.aims))
