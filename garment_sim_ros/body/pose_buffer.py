@@ -228,7 +228,7 @@ class PoseBuffer:
         # each known child's first row against its newest sample, in one call
         known = [(self._dynamic[child], index[0]) for child, index in rows.items() if child in self._dynamic]
         first = [i for _, i in known]
-        newest = np.array([series.newest_rotation for series, _ in known]).reshape(-1, 4)
+        newest = np.array([series.rotations[-1] for series, _ in known]).reshape(-1, 4)
         turned_away = rotation_jumped(rotation_angle(units[first], newest),
                                       stamps[first] - np.array([series.newest for series, _ in known]),
                                       self.max_joint_speed)

@@ -70,10 +70,6 @@ class SampleSeries:
     def newest(self) -> float:
         return float(self._stamps[self._end - 1])
 
-    @property
-    def newest_rotation(self) -> np.ndarray:
-        return self._rotations[self._end - 1]
-
     def clear(self) -> None:
         self._start = self._end = 0
 

@@ -130,10 +130,6 @@ class CharacterLoop:
         self.quality_rate_hz = quality_rate_hz  # quality meters at most this often in body time, Hz
         self._measured_at: float | None = None  # body time of the last measured frame (None: measure the next)
         self.events = EventLog(logger, on_event)  # on_event(level, kind, message): the Rerun recording's text log
-        self.params = params
-        # one rule for a jump: the buffer confirms it, the loop re-dresses
-        buffer.jump_distance_m = params.teleport_distance
-        buffer.max_joint_speed, buffer.max_glitch_time = params.max_joint_speed, params.max_glitch_time
         self._glitches_logged = 0  # the buffer's joint glitches up to the last one logged
         self.garments = list(garments)
         self.resolution = float(resolution)
@@ -159,10 +155,12 @@ class CharacterLoop:
         self._behind_since: float | None = None  # monotonic time since the skeleton is behind the clock
         self._behind_detail = ""
         self._ambiguous: list[str] = []  # the skeletons last named as matching together
+        self.set_params(params)
 
     # -------------------------------------------------------------------------- configuration
     def set_params(self, params: SolverParams) -> None:
         self.params = params
+        # one rule for a jump: the buffer confirms it, the loop re-dresses; and one for a joint glitch
         self.buffer.jump_distance_m = params.teleport_distance
         self.buffer.max_joint_speed, self.buffer.max_glitch_time = params.max_joint_speed, params.max_glitch_time
         if self.character is not None:
