@@ -65,6 +65,7 @@ class Collider:
         self._checked_triangles = None  # the last triangle array handle_axes validated
         self._checked_contacts = None  # the last contact cache validated
         self._corners = np.zeros((3, 3))  # handle_axes' scratch
+        self._triangle_boxes = np.zeros((0, 6))  # handle_axes' scratch, sized for the triangles it checked last
         self.use_broad_phase = True  # off only to check that it changes nothing
         self.static_hits = 0
         self.dynamic_hits = 0
@@ -215,7 +216,7 @@ class Collider:
 
     def _axes(self, x_start, x, v, inv_mass, h: float, triangles) -> int:
         return int(crossing.handle_axes(self._packed, x_start, x, v, inv_mass, h, triangles, self._eps,
-                                        self._pinch_depth, AXIS_PASSES, self._corners))
+                                        self._pinch_depth, AXIS_PASSES, self._corners, self._triangle_boxes))
 
     def penetration_depths(self, x) -> np.ndarray:
         """(N,) metres inside the deepest volume at the substep-end poses, 0 outside.
@@ -273,3 +274,9 @@ class Collider:
                 raise ValueError(f"Collider.handle_axes: triangles must be an int64 (T, 3) array of point indices "
                                  f"below {self.n_points}")
             self._checked_triangles = triangles
+            self._triangle_boxes = np.zeros((crossing.axis_block_count(len(triangles)), 6))
+
+    def axis_boxes(self, triangles) -> np.ndarray:
+        """``crossing.handle_axes``' box scratch for ``triangles`` (T, 3) (checked as ``handle_axes`` does)."""
+        self._check_triangles(triangles)
+        return self._triangle_boxes
