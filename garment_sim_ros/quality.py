@@ -119,8 +119,7 @@ def surface_depth(solver, triangles: np.ndarray) -> float:
     """Deepest centre of the garment's ``triangles`` (T, 3) inside any volume at the last frame's end, m."""
     if solver.collider is None or not len(triangles):
         return 0.0
-    centres = solver.state.positions[triangles].mean(axis=1)
-    return float(np.max(solver.collider.penetration_depths(centres), initial=0.0))
+    return solver.collider.deepest_triangle_centre(solver.state.positions, triangles)
 
 
 def free_point_depth(solver) -> float:

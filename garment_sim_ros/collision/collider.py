@@ -231,6 +231,17 @@ class Collider:
         kernels.penetration_depths(self._packed, x, out)
         return out.copy()
 
+    def deepest_triangle_centre(self, x, triangles) -> float:
+        """Metres inside a volume (``penetration_depths``) of the deepest centre of ``triangles`` (T, 3) of the
+        points ``x`` (N, 3) at the substep-end poses, 0 when none is inside."""
+        x = np.ascontiguousarray(x, dtype=np.float64)
+        triangles = np.ascontiguousarray(triangles, dtype=np.int64)
+        if (x.shape != (self.n_points, 3) or triangles.ndim != 2 or triangles.shape[1] != 3
+                or (triangles.size and not 0 <= triangles.min() <= triangles.max() < self.n_points)):
+            raise ValueError(f"Collider.deepest_triangle_centre: need points ({self.n_points}, 3) and triangles (T, 3) "
+                             f"of indices below {self.n_points}, got {x.shape} and {triangles.shape}")
+        return float(kernels.deepest_triangle_centre(self._packed, x, triangles))
+
     def _check_points(self, x_start, x, v, inv_mass, h, contacts=None) -> None:
         """Refuse what the kernels would misread: they index the arrays unchecked and write x, v, contacts."""
         n = self.n_points
