@@ -615,7 +615,8 @@ def grid_cloth(cells, spacing):
 def test_the_bone_test_finds_crossed_triangles_in_every_run_of_triangles():
     """Three upright limbs enter a level 10 x 10 grid (200 triangles, boxes of ``AXIS_BLOCK`` = 32 consecutive
     ones) through its edge in rows 0, 5 and 9, that is in the first, a middle and the last box. The boxes
-    skip most triangles, never a crossed one: every bone leaves the cloth."""
+    skip most triangles, never a crossed one: the metric (``segments_through_triangles``, the same boxes)
+    finds the three bones through, and every bone leaves the cloth."""
     from garment_sim_ros.collision.crossing import AXIS_BLOCK
     from garment_sim_ros.quality import segments_through_triangles
 
