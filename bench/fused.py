@@ -9,7 +9,8 @@ frame (so load changes hit both alike); per path the median per frame of the sol
 and whether the garments stayed equal. Then the reference path's kernel calls per frame (counted on a third
 character) and what numba's dispatch of them costs: each kernel called with its own recorded arguments into
 an empty compiled function of the same arity (the typing and boxing of the arguments, no work), and each
-kernel's wall time per frame (its calls timed from Python, dispatch included).
+kernel's wall time per frame (its calls timed from Python, dispatch included) and the calling thread's CPU time
+in it (`--threads 1`: all of the kernel's work, which the load does not inflate as it does the wall time).
 
     PYTHONPATH=$PWD python bench/fused.py [--frames 120] [--large-frames 20] [--cases one_piece_cc_walk ...]
 
@@ -115,6 +116,7 @@ def call_profile(name: str, frames: int) -> dict:
     step(source, character, frame_s)  # compiled and cached before the kernels are wrapped
     calls: Counter = Counter()
     spent: Counter = Counter()  # s per kernel, the call's wall time with its dispatch
+    busy: Counter = Counter()  # s per kernel, the calling thread's CPU time (what the load does not inflate)
     sample_args: dict[str, tuple] = {}
     originals = []
     for module in KERNEL_MODULES:
@@ -123,9 +125,10 @@ def call_profile(name: str, frames: int) -> dict:
                 def counted(*args, _kernel=value, _name=f"{module.__name__}.{attribute}"):
                     calls[_name] += 1
                     sample_args.setdefault(_name, args)
-                    tic = time.perf_counter()
+                    tic, cpu = time.perf_counter(), time.thread_time()
                     result = _kernel(*args)
                     spent[_name] += time.perf_counter() - tic
+                    busy[_name] += time.thread_time() - cpu
                     return result
                 originals.append((module, attribute, value))
                 setattr(module, attribute, counted)
@@ -149,12 +152,14 @@ def call_profile(name: str, frames: int) -> dict:
             each = min(each, (time.perf_counter() - tic) / 400)
         per_kernel[kernel_name.split(".", 1)[1]] = {
             "calls_per_frame": calls[kernel_name] / frames, "empty_call_us": round(each * 1e6, 2),
-            "ms_per_frame": round(spent[kernel_name] / frames * 1e3, 4)}
+            "ms_per_frame": round(spent[kernel_name] / frames * 1e3, 4),
+            "cpu_ms_per_frame": round(busy[kernel_name] / frames * 1e3, 4)}
         dispatch_s += calls[kernel_name] * each
     return {"bench": "fused_calls", "case": name, "frames": frames,
             "calls_per_frame": round(sum(calls.values()) / frames, 1),
             "dispatch_ms_per_frame": round(dispatch_s / frames * 1e3, 4),
             "kernels_ms_per_frame": round(sum(spent.values()) / frames * 1e3, 4),
+            "kernels_cpu_ms_per_frame": round(sum(busy.values()) / frames * 1e3, 4),
             "step_ms_per_frame": round(stepped / frames * 1e3, 4),
             "kernels": per_kernel, "load_1min": benchmarking.load_average()}
 
@@ -165,12 +170,16 @@ def main() -> int:
     parser.add_argument("--large-frames", type=int, default=20, help="timed frames of the 5 000 and 20 000-point cases")
     parser.add_argument("--warmup", type=int, default=5)
     parser.add_argument("--cases", nargs="+", choices=CASES, default=list(CASES))
+    parser.add_argument("--threads", type=int, default=None, help="numba threads (default: numba's)")
+    parser.add_argument("--profile-frames", type=int, default=None,
+                        help="frames of the call profile (default: a quarter of the timed ones, at least 5)")
     args = parser.parse_args()
+    benchmarking.set_threads(args.threads)
     for name in args.cases:
         frames = args.large_frames if name in LARGE else args.frames
         for row in compare(name, frames, args.warmup):
             print(json.dumps(row), flush=True)
-        print(json.dumps(call_profile(name, max(5, frames // 4))), flush=True)
+        print(json.dumps(call_profile(name, args.profile_frames or max(5, frames // 4))), flush=True)
     return 0
 
 

@@ -32,7 +32,13 @@ from numba import njit
 
 from .cloth.kernels import spring_stretches
 from .cloth.model import SHEAR, STRUCTURAL
-from .collision.crossing import segment_crosses_triangle, segment_misses_triangle_box
+from .collision.crossing import (
+    AXIS_BLOCK,
+    block_boxes,
+    segment_crosses_triangle,
+    segment_misses_block,
+    segment_misses_triangle_box,
+)
 from .collision.geometry import to_local
 from .transforms import quat_to_matrix
 
@@ -60,19 +66,26 @@ def segments_through_triangles(starts, ends, x, triangles, crossed):
     Writes ``crossed`` (B,) bool and returns how many do. A segment touching a triangle's edge or
     vertex crosses; one parallel to a triangle's plane (in it or not) does not cross that triangle.
     """
+    n_triangles = triangles.shape[0]
+    boxes = np.empty(((n_triangles + AXIS_BLOCK - 1) // AXIS_BLOCK, 6))
+    block_boxes(x, triangles, boxes)  # most runs of triangles are nowhere near a bone (``crossing.handle_axes``)
     count = 0
     for k in range(starts.shape[0]):
         px, py, pz = starts[k, 0], starts[k, 1], starts[k, 2]
-        dx, dy, dz = ends[k, 0] - px, ends[k, 1] - py, ends[k, 2] - pz
+        qx, qy, qz = ends[k, 0], ends[k, 1], ends[k, 2]
+        dx, dy, dz = qx - px, qy - py, qz - pz
         crossed[k] = False
-        for t in range(triangles.shape[0]):
-            a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-            if segment_misses_triangle_box(x, a, b, c, px, py, pz, ends[k, 0], ends[k, 1], ends[k, 2]):
-                continue  # most triangles are nowhere near a bone
-            if segment_crosses_triangle(px, py, pz, dx, dy, dz, x, a, b, c)[0]:
-                crossed[k] = True
-                count += 1
-                break
+        for block in range(boxes.shape[0]):
+            if crossed[k] or segment_misses_block(boxes, block, px, py, pz, qx, qy, qz):
+                continue
+            for t in range(block * AXIS_BLOCK, min((block + 1) * AXIS_BLOCK, n_triangles)):
+                a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+                if segment_misses_triangle_box(x, a, b, c, px, py, pz, qx, qy, qz):
+                    continue
+                if segment_crosses_triangle(px, py, pz, dx, dy, dz, x, a, b, c)[0]:
+                    crossed[k] = True
+                    count += 1
+                    break
     return count
 
 
@@ -119,8 +132,7 @@ def surface_depth(solver, triangles: np.ndarray) -> float:
     """Deepest centre of the garment's ``triangles`` (T, 3) inside any volume at the last frame's end, m."""
     if solver.collider is None or not len(triangles):
         return 0.0
-    centres = solver.state.positions[triangles].mean(axis=1)
-    return float(np.max(solver.collider.penetration_depths(centres), initial=0.0))
+    return solver.collider.deepest_triangle_centre(solver.state.positions, triangles)
 
 
 def free_point_depth(solver) -> float:

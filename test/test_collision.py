@@ -538,9 +538,9 @@ def test_bad_input_is_refused_with_a_clear_message():
 
 # ----------------------------------------------------------------------------- bones through triangles
 
-def forearm(bone=(-0.12, 0.12)):
+def forearm(bone=(-0.12, 0.12), name="forearm"):
     """An upright limb: 3 cm radius, its bone along local z."""
-    return Volume("forearm", ELLIPSOID, "f", (0.03, 0.03, 0.15), (-0.14, 0.14), bone=bone)
+    return Volume(name, ELLIPSOID, "f", (0.03, 0.03, 0.15), (-0.14, 0.14), bone=bone)
 
 
 # a level 10 x 16 cm strip centred at (x0, 0, 0): two triangles, its points 8 cm either side of the x axis
@@ -596,6 +596,44 @@ def test_a_strip_that_slides_over_a_still_limb_goes_back_to_the_side_it_came_fro
     before, _, _ = sweep(c, x_start, x)
     assert bone_through_strip(before, np.zeros(3))
     assert not bone_through_strip(x, np.zeros(3)) and np.all(x[:, 0] >= 0.003 - 1e-12)
+
+
+def grid_cloth(cells, spacing):
+    """A level square grid of ``cells`` x ``cells`` cells from the origin, two triangles a cell, row by row."""
+    side = np.arange(cells + 1) * spacing
+    x = np.array([[px, py, 0.0] for py in side for px in side])
+    corner = np.arange(cells + 1)
+    triangles = []
+    for row in range(cells):
+        for column in range(cells):
+            a, b = row * (cells + 1) + corner[column], row * (cells + 1) + corner[column] + 1
+            c, d = a + cells + 1, b + cells + 1
+            triangles += [[a, b, d], [a, d, c]]
+    return x, np.array(triangles, dtype=np.int64)
+
+
+def test_the_bone_test_finds_crossed_triangles_in_every_run_of_triangles():
+    """Three upright limbs enter a level 10 x 10 grid (200 triangles, boxes of ``AXIS_BLOCK`` = 32 consecutive
+    ones) through its edge in rows 0, 5 and 9, that is in the first, a middle and the last box. The boxes
+    skip most triangles, never a crossed one: the metric (``segments_through_triangles``, the same boxes)
+    finds the three bones through, and every bone leaves the cloth."""
+    from garment_sim_ros.collision.crossing import AXIS_BLOCK
+    from garment_sim_ros.quality import segments_through_triangles
+
+    x_start, triangles = grid_cloth(10, 0.16)
+    assert len(triangles) > 5 * AXIS_BLOCK
+    rows = np.array([0, 5, 9])
+    end = np.stack([np.full(3, 0.06), 0.16 * rows + 0.06, np.zeros(3)], axis=1)  # inside row r's first cell
+    start = end - [0.16, 0.0, 0.0]  # outside the cloth
+    limbs = [forearm(name=f"forearm{row}") for row in rows]
+    c = make_collider(limbs, len(x_start), start, pos1=end, collision_epsilon=0.003)
+    x = x_start.copy()
+    bones = np.array([0.0, 0.0, 0.12])
+    crossed = np.zeros(3, bool)
+    assert segments_through_triangles(end - bones, end + bones, x, triangles, crossed) == 3
+    moved = c.handle_axes(x_start, x, np.zeros_like(x), np.ones(len(x)), H, triangles)
+    assert moved >= 3
+    assert segments_through_triangles(end - bones, end + bones, x, triangles, crossed) == 0
 
 
 def test_a_volume_without_a_bone_is_not_tested():

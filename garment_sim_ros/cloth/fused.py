@@ -92,7 +92,7 @@ def advance_substeps(solver, frame, count: int, h: float, v0, a0, yaw_rate: floa
                solver._triangles)
     scratch = (solver._forces, solver._x_start, solver._x_collision, solver._x_kept, solver._v_kept,
                solver._v_scratch, solver._strain_inv_mass, solver._strain_stretches, collider._depths,
-               collider._scratch, collider._corners)
+               collider._scratch, collider._corners, collider.axis_boxes(solver._triangles))
     settings = (float(h), float(yaw_acc), float(params.air_damping), float(params.angular_inertia_scale),
                 int(params.correction_iterations), int(solver._correct_count), float(params.limit_ratio),
                 bool(params.tethers), 1.0 + float(params.tether_slack), constrained, float(params.max_distance),
@@ -209,7 +209,7 @@ def _resolve(arrays, xs, x, v, inv_mass, h, contacts, edges, edge_rest, triangle
         contact[0], contact[1], contact[3], contact[4], contact[5], contact[6], contact[7])
     n_static, n_dynamic = _points(arrays, xs, x, v, inv_mass, h, contacts, scratch, contact)
     crossed = crossing.handle_axes(arrays, xs, x, v, inv_mass, h, triangles, eps, pinch_depth, AXIS_PASSES,
-                                   scratch[10])
+                                   scratch[10], scratch[11])
     if collision_kernels.handle_edges(arrays, xs, x, inv_mass, edges, edge_rest, edge_pinch_depth) or crossed:
         n_static += _handle_contacts(arrays, xs, x, v, inv_mass, h, eps, friction, grip, switch_ratio, mode,
                                      contacts)
@@ -217,7 +217,8 @@ def _resolve(arrays, xs, x, v, inv_mass, h, contacts, edges, edge_rest, triangle
         s, d = _points(arrays, xs, x, v, inv_mass, h, contacts, scratch, contact)
         n_static += s
         n_dynamic += d
-        crossing.handle_axes(arrays, xs, x, v, inv_mass, h, triangles, eps, pinch_depth, AXIS_PASSES, scratch[10])
+        crossing.handle_axes(arrays, xs, x, v, inv_mass, h, triangles, eps, pinch_depth, AXIS_PASSES, scratch[10],
+                             scratch[11])
     return n_static, n_dynamic
 
 

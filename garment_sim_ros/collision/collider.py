@@ -65,6 +65,7 @@ class Collider:
         self._checked_triangles = None  # the last triangle array handle_axes validated
         self._checked_contacts = None  # the last contact cache validated
         self._corners = np.zeros((3, 3))  # handle_axes' scratch
+        self._triangle_boxes = np.zeros((0, 6))  # handle_axes' scratch, sized for the triangles it checked last
         self.use_broad_phase = True  # off only to check that it changes nothing
         self.static_hits = 0
         self.dynamic_hits = 0
@@ -215,7 +216,7 @@ class Collider:
 
     def _axes(self, x_start, x, v, inv_mass, h: float, triangles) -> int:
         return int(crossing.handle_axes(self._packed, x_start, x, v, inv_mass, h, triangles, self._eps,
-                                        self._pinch_depth, AXIS_PASSES, self._corners))
+                                        self._pinch_depth, AXIS_PASSES, self._corners, self._triangle_boxes))
 
     def penetration_depths(self, x) -> np.ndarray:
         """(N,) metres inside the deepest volume at the substep-end poses, 0 outside.
@@ -229,6 +230,17 @@ class Collider:
         out = self._depths if x.shape[0] == self.n_points else np.zeros(x.shape[0])
         kernels.penetration_depths(self._packed, x, out)
         return out.copy()
+
+    def deepest_triangle_centre(self, x, triangles) -> float:
+        """Metres inside a volume (``penetration_depths``) of the deepest centre of ``triangles`` (T, 3) of the
+        points ``x`` (N, 3) at the substep-end poses, 0 when none is inside."""
+        x = np.ascontiguousarray(x, dtype=np.float64)
+        triangles = np.ascontiguousarray(triangles, dtype=np.int64)
+        if (x.shape != (self.n_points, 3) or triangles.ndim != 2 or triangles.shape[1] != 3
+                or (triangles.size and not 0 <= triangles.min() <= triangles.max() < self.n_points)):
+            raise ValueError(f"Collider.deepest_triangle_centre: need points ({self.n_points}, 3) and triangles (T, 3) "
+                             f"of indices below {self.n_points}, got {x.shape} and {triangles.shape}")
+        return float(kernels.deepest_triangle_centre(self._packed, x, triangles))
 
     def _check_points(self, x_start, x, v, inv_mass, h, contacts=None) -> None:
         """Refuse what the kernels would misread: they index the arrays unchecked and write x, v, contacts."""
@@ -273,3 +285,9 @@ class Collider:
                 raise ValueError(f"Collider.handle_axes: triangles must be an int64 (T, 3) array of point indices "
                                  f"below {self.n_points}")
             self._checked_triangles = triangles
+            self._triangle_boxes = np.zeros((crossing.axis_block_count(len(triangles)), 6))
+
+    def axis_boxes(self, triangles) -> np.ndarray:
+        """``crossing.handle_axes``' box scratch for ``triangles`` (T, 3) (checked as ``handle_axes`` does)."""
+        self._check_triangles(triangles)
+        return self._triangle_boxes

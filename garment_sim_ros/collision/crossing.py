@@ -49,6 +49,15 @@ _PARALLEL_SINE = 1e-9
 _TINY = 1e-12
 # a crossed triangle leaves along its normal when the normal's part across the bone is at least this (sine)
 _ACROSS = 0.3
+# handle_axes' broad phase: consecutive triangles per bounding box (a grid garment's run of 32 triangles lies
+# along one row, a few cm long; a bone's segment box meets few of them)
+AXIS_BLOCK = 32
+_BOX_SLACK = 1e-9  # m, the segment box's slack in ``segment_misses_triangle_box``
+
+
+def axis_block_count(triangles: int) -> int:
+    """How many boxes ``handle_axes`` needs for ``triangles`` triangles (the rows of its ``boxes``)."""
+    return -(-triangles // AXIS_BLOCK)
 
 
 @kernel
@@ -83,12 +92,38 @@ def segment_crosses_triangle(px, py, pz, dx, dy, dz, x, a, b, c):
 def segment_misses_triangle_box(x, a, b, c, px, py, pz, qx, qy, qz):
     """True when the bounding boxes of segment p -> q and triangle (a, b, c) of ``x`` are apart (1 nm slack):
     then the segment cannot cross the triangle. Most triangles are nowhere near a bone."""
-    return (max(x[a, 0], x[b, 0], x[c, 0]) < min(px, qx) - 1e-9
-            or min(x[a, 0], x[b, 0], x[c, 0]) > max(px, qx) + 1e-9
-            or max(x[a, 1], x[b, 1], x[c, 1]) < min(py, qy) - 1e-9
-            or min(x[a, 1], x[b, 1], x[c, 1]) > max(py, qy) + 1e-9
-            or max(x[a, 2], x[b, 2], x[c, 2]) < min(pz, qz) - 1e-9
-            or min(x[a, 2], x[b, 2], x[c, 2]) > max(pz, qz) + 1e-9)
+    return (max(x[a, 0], x[b, 0], x[c, 0]) < min(px, qx) - _BOX_SLACK
+            or min(x[a, 0], x[b, 0], x[c, 0]) > max(px, qx) + _BOX_SLACK
+            or max(x[a, 1], x[b, 1], x[c, 1]) < min(py, qy) - _BOX_SLACK
+            or min(x[a, 1], x[b, 1], x[c, 1]) > max(py, qy) + _BOX_SLACK
+            or max(x[a, 2], x[b, 2], x[c, 2]) < min(pz, qz) - _BOX_SLACK
+            or min(x[a, 2], x[b, 2], x[c, 2]) > max(pz, qz) + _BOX_SLACK)
+
+
+@kernel
+def block_boxes(x, triangles, boxes):
+    """Per run of ``AXIS_BLOCK`` consecutive triangles (T, 3) of ``x``, the box of their corners into ``boxes``
+    (``axis_block_count(T)``, 6): (lo_x, lo_y, lo_z, hi_x, hi_y, hi_z) m."""
+    n_triangles = triangles.shape[0]
+    for k in range(boxes.shape[0]):
+        for c in range(3):
+            boxes[k, c] = math.inf
+            boxes[k, 3 + c] = -math.inf
+        for t in range(k * AXIS_BLOCK, min((k + 1) * AXIS_BLOCK, n_triangles)):
+            for j in range(3):
+                i = triangles[t, j]
+                for c in range(3):
+                    boxes[k, c] = min(boxes[k, c], x[i, c])
+                    boxes[k, 3 + c] = max(boxes[k, 3 + c], x[i, c])
+
+
+@kernel
+def segment_misses_block(boxes, k, px, py, pz, qx, qy, qz):
+    """True when the segment p -> q's box (the slack of ``segment_misses_triangle_box``) is apart from block k's
+    box: then it is apart from the box of every triangle in the block, which lies within."""
+    return (boxes[k, 3] < min(px, qx) - _BOX_SLACK or boxes[k, 0] > max(px, qx) + _BOX_SLACK
+            or boxes[k, 4] < min(py, qy) - _BOX_SLACK or boxes[k, 1] > max(py, qy) + _BOX_SLACK
+            or boxes[k, 5] < min(pz, qz) - _BOX_SLACK or boxes[k, 2] > max(pz, qz) + _BOX_SLACK)
 
 
 @kernel
@@ -290,15 +325,22 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
 
 
 @kernel
-def handle_axes(arrays, xs, x, vel, inv_mass, h, triangles, eps, pinch_depth, passes, corners):
+def handle_axes(arrays, xs, x, vel, inv_mass, h, triangles, eps, pinch_depth, passes, corners, boxes):
     """Every volume axis (the bones; not spheres) against every triangle (T, 3) of ``x`` at the end poses;
     a crossed triangle goes off the axis (``_push_off_axis``). Moving one can cross a neighbour, so up to
-    ``passes`` passes, until one moves nothing. ``corners`` (3, 3): scratch. Returns the number of triangles moved."""
+    ``passes`` passes, until one moves nothing. ``corners`` (3, 3) and ``boxes`` (``axis_block_count(T)``, 6):
+    scratch. Returns the number of triangles moved.
+
+    Broad phase: the boxes of runs of triangles (``block_boxes``), made at each pass's start, skip the runs
+    a bone's segment box is apart from; once a triangle moved, its corners may have left their boxes, and the
+    rest of the pass tests every triangle. So the triangles tested exactly are the same as without it."""
     vol = VolumeArrays(*arrays)  # a plain tuple from Python (see ``collision.kernels``)
     bones, pos1, rot1 = vol.bones, vol.pos1, vol.rot1
+    n_triangles = triangles.shape[0]
     n_moved = 0
     for _ in range(passes):
         moved = 0
+        block_boxes(x, triangles, boxes)
         for v in range(bones.shape[0]):
             z0, z1 = bones[v, 0], bones[v, 1]
             if math.isnan(z0):
@@ -306,14 +348,17 @@ def handle_axes(arrays, xs, x, vel, inv_mass, h, triangles, eps, pinch_depth, pa
             px, py, pz = to_world(pos1, rot1, v, 0.0, 0.0, z0)
             qx, qy, qz = to_world(pos1, rot1, v, 0.0, 0.0, z1)
             dx, dy, dz = qx - px, qy - py, qz - pz
-            for t in range(triangles.shape[0]):
-                a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-                if segment_misses_triangle_box(x, a, b, c, px, py, pz, qx, qy, qz):
+            for k in range(boxes.shape[0]):
+                if moved == 0 and segment_misses_block(boxes, k, px, py, pz, qx, qy, qz):
                     continue
-                crosses, s, u, w = segment_crosses_triangle(px, py, pz, dx, dy, dz, x, a, b, c)
-                if crosses and _push_off_axis(vol, v, z0 + s * (z1 - z0), triangles, t, u, w, xs, x, vel, inv_mass,
-                                              h, eps, pinch_depth, corners):
-                    moved += 1
+                for t in range(k * AXIS_BLOCK, min((k + 1) * AXIS_BLOCK, n_triangles)):
+                    a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+                    if segment_misses_triangle_box(x, a, b, c, px, py, pz, qx, qy, qz):
+                        continue
+                    crosses, s, u, w = segment_crosses_triangle(px, py, pz, dx, dy, dz, x, a, b, c)
+                    if crosses and _push_off_axis(vol, v, z0 + s * (z1 - z0), triangles, t, u, w, xs, x, vel,
+                                                  inv_mass, h, eps, pinch_depth, corners):
+                        moved += 1
         n_moved += moved
         if moved == 0:
             break

@@ -365,19 +365,37 @@ def handle_edges(arrays, xs, x, inv_mass, edges, rest_lengths, edge_pinch_depth)
 
 
 @kernel
-def penetration_depths(arrays, x, out):
-    """Depth of every point inside its deepest volume at the end poses (see ``penetration_depth``), 0 outside,
-    into ``out`` (N,) m. Returns nothing: compiled without numba's runtime, a returned array would carry no
-    reference of its own, and a compiled caller dropping it would free the caller's array (``cloth.fused``)."""
-    vol = VolumeArrays(*arrays)
+def _deepest(vol, px, py, pz):
+    """Depth of point p inside its deepest volume at the end poses (see ``penetration_depth``), 0 outside, m."""
     kinds, radii, cuts, planes, pos, rot = vol.kinds, vol.radii, vol.cuts, vol.planes, vol.pos1, vol.rot1
     bounding_radii = vol.bounding_radii
+    deepest = 0.0
+    for v in range(kinds.shape[0]):
+        if (px - pos[v, 0]) ** 2 + (py - pos[v, 1]) ** 2 + (pz - pos[v, 2]) ** 2 > bounding_radii[v] ** 2:
+            continue  # outside the sphere holding the volume: depth 0 (most pairs, without a rotation)
+        lx, ly, lz = to_local(pos, rot, v, px, py, pz)
+        deepest = max(deepest, penetration_depth(kinds[v], radii, cuts, planes, v, lx, ly, lz))
+    return deepest
+
+
+@kernel
+def penetration_depths(arrays, x, out):
+    """Depth of every point inside its deepest volume at the end poses (``_deepest``) into ``out`` (N,) m.
+    Returns nothing: compiled without numba's runtime, a returned array would carry no reference of its own,
+    and a compiled caller dropping it would free the caller's array (``cloth.fused``)."""
+    vol = VolumeArrays(*arrays)
     for i in range(x.shape[0]):
-        deepest = 0.0
-        for v in range(kinds.shape[0]):
-            if ((x[i, 0] - pos[v, 0]) ** 2 + (x[i, 1] - pos[v, 1]) ** 2 + (x[i, 2] - pos[v, 2]) ** 2
-                    > bounding_radii[v] ** 2):
-                continue  # outside the sphere holding the volume: depth 0 (most pairs, without a rotation)
-            lx, ly, lz = to_local(pos, rot, v, x[i, 0], x[i, 1], x[i, 2])
-            deepest = max(deepest, penetration_depth(kinds[v], radii, cuts, planes, v, lx, ly, lz))
-        out[i] = deepest
+        out[i] = _deepest(vol, x[i, 0], x[i, 1], x[i, 2])
+
+
+@kernel
+def deepest_triangle_centre(arrays, x, triangles):
+    """The depth of the deepest centre of the triangles (T, 3) of ``x`` inside a volume (``_deepest``), m;
+    0 when none is inside. The centre is the corners' sum over 3, as numpy's mean of them."""
+    vol = VolumeArrays(*arrays)
+    deepest = 0.0
+    for t in range(triangles.shape[0]):
+        a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+        deepest = max(deepest, _deepest(vol, (x[a, 0] + x[b, 0] + x[c, 0]) / 3.0, (x[a, 1] + x[b, 1] + x[c, 1]) / 3.0,
+                                        (x[a, 2] + x[b, 2] + x[c, 2]) / 3.0))
+    return deepest
