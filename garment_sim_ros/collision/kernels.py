@@ -94,16 +94,14 @@ def _next_candidate(vol, xs, x, i, cache, start):
     meets the segment p0' -> p1); the volume count if none. Most pairs end here, in a few dozen flops."""
     n_volumes = vol.kinds.shape[0]
     for v in range(start, n_volumes):
-        if out_of_reach(vol, v, x, i):
-            continue
-        bx, by, bz = to_local(vol.pos1, vol.rot1, v, x[i, 0], x[i, 1], x[i, 2])
-        ax, ay, az = to_local(vol.pos0, vol.rot0, v, xs[i, 0], xs[i, 1], xs[i, 2])
-        if segment_misses_box(vol.boxes, v, ax, ay, az, bx, by, bz):
-            continue
         cached = False
         for c in range(cache.shape[1]):
             cached = cached or cache[i, c] == v
-        if not cached:
+        if cached or out_of_reach(vol, v, x, i):  # the cache first: a point resting on a volume skips its rotations
+            continue
+        bx, by, bz = to_local(vol.pos1, vol.rot1, v, x[i, 0], x[i, 1], x[i, 2])
+        ax, ay, az = to_local(vol.pos0, vol.rot0, v, xs[i, 0], xs[i, 1], xs[i, 2])
+        if not segment_misses_box(vol.boxes, v, ax, ay, az, bx, by, bz):
             return v
     return n_volumes
 
