@@ -190,13 +190,14 @@ def run_drape(n: int = DEFAULT_N, frames: int = DEFAULT_FRAMES, warmup: int = WA
     scene = DrapeScene(n, drape_params(n, correction_iterations))
     worst_penetration = worst_stretch = 0.0
     finite = True
-    wall = []
+    wall, cpu = [], []
     for frame in range(warmup + frames):
-        tic = time.perf_counter()
+        tic, cpu_tic = time.perf_counter(), time.process_time()
         scene.advance()
-        elapsed = time.perf_counter() - tic
+        elapsed, cpu_elapsed = time.perf_counter() - tic, time.process_time() - cpu_tic
         if frame >= warmup:
             wall.append(elapsed)
+            cpu.append(cpu_elapsed)
         if not np.all(np.isfinite(scene.positions)):
             finite = False
             break
@@ -211,6 +212,9 @@ def run_drape(n: int = DEFAULT_N, frames: int = DEFAULT_FRAMES, warmup: int = WA
         "substeps_per_frame": SUBSTEPS,
         "ms_per_frame": round(seconds / max(1, len(wall)) * 1e3, 4),
         "ms_per_frame_median": round(float(np.median(wall)) * 1e3, 4) if wall else math.nan,
+        # the process's CPU time (all threads): steadier than the wall time on a loaded machine, where the wall
+        # time also counts the time other processes held the cores
+        "cpu_ms_per_frame": round(sum(cpu) / max(1, len(cpu)) * 1e3, 4),
         "particle_substeps_per_s": round(particles * SUBSTEPS * len(wall) / seconds) if seconds > 0 else None,
         "max_penetration_m": worst_penetration,
         "max_stretch": round(worst_stretch, 5),
