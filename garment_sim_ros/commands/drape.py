@@ -30,13 +30,13 @@ after them; and 6 correction iterations, not 4. N = 64, max stretch: 1.20 with t
 
 Damping and iterations (issue 15, the drape's speed; docs/benchmarks.md, "Where the drape's time goes"). The
 springs' damping is explicit too, and a point with ``DAMPED_SPRINGS`` damped springs (about 6 structural and 4
-shear on this grid) is stable only for ``c < m / (DAMPED_SPRINGS h)`` (Gershgorin on the damping matrix): at
+shear on this grid) is surely stable for ``c < m / (DAMPED_SPRINGS h)`` (Gershgorin on the damping matrix): at
 N = 64 the asked 0.01 N s/m, capped by the solver to 0.0044, is 5x that, and the cloth fluttered -- every point's
 velocity flipped sign each substep (mean speed 1.22 m/s with the sphere still at the end, corners held up at
-z = -0.12 m; 0.21 m/s and -0.32 m below the limit). So the damping asked is at most that limit. The strain
+z = -0.12 m; 0.21 m/s and -0.33 m below the limit). So the damping asked is at most that limit. The strain
 limiting runs up to 24 sweeps but stops once no spring is longer than 1.11 x its rest length (tolerance 0.1),
-after 8 correction iterations: most substeps stop early, the reversals use more. N = 64: max stretch 1.0962
-(1.0966 before), CPU time per frame 23.7 ms against 31 ms with 6 / 12 sweeps and the capped damping.
+after 8 correction iterations: most substeps stop early, the reversals use more. N = 64: max stretch 1.0973
+(1.0966 before), CPU time per frame 22.5-23.1 ms against 30.9-31.1 with 6 / 12 sweeps and the capped damping.
 """
 
 from __future__ import annotations
