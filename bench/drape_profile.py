@@ -1,10 +1,11 @@
 """Where the drape's time goes (``garment-sim drape``, n = 64): per kernel, per frame.
 
-Runs the scene twice from the start: on the fused frame (``cloth.fused``, what ``garment-sim drape`` runs:
-its wall time per frame) and on the reference loop with every kernel it calls wrapped in a timer (the same
-kernels in the same order, ``cloth.fused``'s docstring): each kernel's ms per frame and calls per frame, the
-strain limiting's sweeps per substep, and what the reference loop spends outside the kernels (Python, numba's
-dispatch). Prints one JSON line.
+Runs the scene twice from the start: on the fused frame (``cloth.fused``, what ``garment-sim drape`` runs: its
+wall and CPU time per frame) and on the reference loop with every kernel it calls wrapped in a CPU timer (the same
+kernels in the same order, ``cloth.fused``'s docstring): each kernel's CPU ms per frame and calls per substep
+(the strain limiting's sweeps and contact handling apart), and what the reference loop spends outside the
+kernels (Python, numba's dispatch). CPU time (``time.process_time``, all threads), as the wall time on a loaded
+machine also counts the time other processes held the cores. Prints one JSON line.
 
     PYTHONPATH=$PWD python bench/drape_profile.py [frames=K] [threads=T] [NAME=VALUE ...]
 
@@ -50,11 +51,11 @@ def profile(frames: int, changes: dict) -> dict:
     fused_scene = drape.DrapeScene(n, params)
     fused_wall, fused_cpu = [], []
     for frame in range(drape.WARMUP_FRAMES + frames):
-        tic, cpu = time.perf_counter(), time.process_time()
+        tic, cpu_tic = time.perf_counter(), time.process_time()
         fused_scene.advance()
         if frame >= drape.WARMUP_FRAMES:
             fused_wall.append(time.perf_counter() - tic)
-            fused_cpu.append(time.process_time() - cpu)
+            fused_cpu.append(time.process_time() - cpu_tic)
 
     scene = drape.DrapeScene(n, params)
     scene.solver.use_fused = False
