@@ -155,9 +155,9 @@ def _handle_point_all(vol, xs, x, vel, i, h, eps, friction, grip, c_time, switch
             continue
         # A cached volume the point left is evicted by the bounding-sphere test, which decides what
         # handle_contacts sees next; within ``margin`` of that sphere it stays (see ``_handle_all``).
-        if (out_of_reach(vol, v, x, i) or broad_phase_rejects(vol, v, xs, x, i)) and not (
-                margin > 0.0 and _near_bounding_sphere(vol, v, x, i, margin)):
-            continue
+        if not (margin > 0.0 and _near_bounding_sphere(vol, v, x, i, margin)) and (
+                out_of_reach(vol, v, x, i) or broad_phase_rejects(vol, v, xs, x, i)):
+            continue  # the margin first: a point resting by the volume skips the broad phase's square roots
         code = handle_pair(vol, v, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, mode)[0]
         if code == NO_HIT:
             n_kept = _record(scratch, i, cache_size, n_kept, cache_size, v)
