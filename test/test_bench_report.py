@@ -3,6 +3,7 @@ roofline and the peers of the same run, from JSON lines as the benchmarks print 
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -51,6 +52,24 @@ def test_the_drape_target_needs_newton_vbd_measured_in_the_same_run():
     without_peers = [row for row in ROWS if row["bench"] != "peers"]
     drape = next(f for f in figures(without_peers) if f["figure"].startswith("drape"))
     assert drape["holds"] is False and drape["peer_speedup"] == {} and "not measured" in drape["note"]
+
+
+def test_the_drape_ratio_takes_newton_as_the_drape_bench_ran_it_beside_ours():
+    beside = {"bench": "drape", "engine": "warp/newton-vbd", "n": 64, "particles": 4096, "ms_per_frame": 2000.0}
+    drape = next(f for f in figures([*ROWS, beside]) if f["figure"].startswith("drape"))
+    # 2000 / 8 (not the peers bench's 500 / 8), and newton's row is not taken for ours
+    assert drape["value"] == 8.0 and drape["peer_speedup"]["warp/newton-vbd"] == 250.0
+    assert drape["peer_speedup"]["mujoco-flex-discrete-CG-slide"] == 65.0
+
+
+def test_the_drape_bench_says_how_to_add_newton_when_the_peers_venv_is_absent(tmp_path):
+    script = Path(__file__).resolve().parents[1] / "bench" / "drape.py"
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300,
+                          env={"PEERS_VENV": str(tmp_path / "no-venv"), "DRAPE_FRAMES": "1", "PATH": "/usr/bin:/bin",
+                               "PYTHONPATH": str(script.parents[1])})
+    rows = [json.loads(line) for line in done.stdout.splitlines() if line.startswith("{")]
+    assert done.returncode == 0 and "drape: newton VBD skipped: no" in done.stdout
+    assert len(rows) == 1 and rows[0]["n"] == 64 and rows[0]["frames"] == 1 and "engine" not in rows[0]
 
 
 def test_peers_are_skipped_with_a_message_when_their_venv_is_absent(tmp_path):

@@ -94,16 +94,14 @@ def _next_candidate(vol, xs, x, i, cache, start):
     meets the segment p0' -> p1); the volume count if none. Most pairs end here, in a few dozen flops."""
     n_volumes = vol.kinds.shape[0]
     for v in range(start, n_volumes):
-        if out_of_reach(vol, v, x, i):
-            continue
-        bx, by, bz = to_local(vol.pos1, vol.rot1, v, x[i, 0], x[i, 1], x[i, 2])
-        ax, ay, az = to_local(vol.pos0, vol.rot0, v, xs[i, 0], xs[i, 1], xs[i, 2])
-        if segment_misses_box(vol.boxes, v, ax, ay, az, bx, by, bz):
-            continue
         cached = False
         for c in range(cache.shape[1]):
             cached = cached or cache[i, c] == v
-        if not cached:
+        if cached or out_of_reach(vol, v, x, i):  # the cache first: a point resting on a volume skips its rotations
+            continue
+        bx, by, bz = to_local(vol.pos1, vol.rot1, v, x[i, 0], x[i, 1], x[i, 2])
+        ax, ay, az = to_local(vol.pos0, vol.rot0, v, xs[i, 0], xs[i, 1], xs[i, 2])
+        if not segment_misses_box(vol.boxes, v, ax, ay, az, bx, by, bz):
             return v
     return n_volumes
 
@@ -157,9 +155,9 @@ def _handle_point_all(vol, xs, x, vel, i, h, eps, friction, grip, c_time, switch
             continue
         # A cached volume the point left is evicted by the bounding-sphere test, which decides what
         # handle_contacts sees next; within ``margin`` of that sphere it stays (see ``_handle_all``).
-        if (out_of_reach(vol, v, x, i) or broad_phase_rejects(vol, v, xs, x, i)) and not (
-                margin > 0.0 and _near_bounding_sphere(vol, v, x, i, margin)):
-            continue
+        if not (margin > 0.0 and _near_bounding_sphere(vol, v, x, i, margin)) and (
+                out_of_reach(vol, v, x, i) or broad_phase_rejects(vol, v, xs, x, i)):
+            continue  # the margin first: a point resting by the volume skips the broad phase's square roots
         code = handle_pair(vol, v, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, mode)[0]
         if code == NO_HIT:
             n_kept = _record(scratch, i, cache_size, n_kept, cache_size, v)

@@ -27,6 +27,16 @@ out to the full offset while its neighbour sat a fraction of a mm out it stretch
 contact handling inside the length correction and the strain limiting keeps them out, not the full handling
 after them; and 6 correction iterations, not 4. N = 64, max stretch: 1.20 with the 3 mm offset, 1.114 with
 0.5 mm and 4 iterations, 1.097 with 6 (docs/benchmarks.md, "Drape with friction").
+
+Damping and iterations (issue 15, the drape's speed; docs/benchmarks.md, "Where the drape's time goes"). The
+springs' damping is explicit too, and a point with ``DAMPED_SPRINGS`` damped springs (about 6 structural and 4
+shear on this grid) is surely stable for ``c < m / (DAMPED_SPRINGS h)`` (Gershgorin on the damping matrix): at
+N = 64 the asked 0.01 N s/m, capped by the solver to 0.0044, is 5x that, and the cloth fluttered -- every point's
+velocity flipped sign each substep (mean speed 1.22 m/s with the sphere still at the end, corners held up at
+z = -0.12 m; 0.21 m/s and -0.33 m below the limit). So the damping asked is at most that limit. The strain
+limiting runs up to 24 sweeps but stops once no spring is longer than 1.11 x its rest length (tolerance 0.1),
+after 8 correction iterations: most substeps stop early, the reversals use more. N = 64: max stretch 1.0973
+(1.0966 before), CPU time per frame 22.5-23.1 ms against 30.9-31.1 with 6 / 12 sweeps and the capped damping.
 """
 
 from __future__ import annotations
@@ -67,7 +77,11 @@ SPHERE_SPEED = 1.0  # m/s
 MOVING_UNTIL_S = 2.5
 DEFAULT_N = 64
 DEFAULT_FRAMES = 90  # with the warm-up frames, 3.17 s: the whole motion and 0.67 s of rest after
-DEFAULT_CORRECTION_ITERATIONS = 6
+DEFAULT_CORRECTION_ITERATIONS = 8
+STRAIN_LIMIT_ITERATIONS = 24  # at most; they stop at STRAIN_LIMIT_TOLERANCE
+STRAIN_LIMIT_TOLERANCE = 0.1
+SPRING_DAMPING = 0.01  # N s/m asked of the stretch and shear springs, at most the stable DAMPED_SPRINGS limit
+DAMPED_SPRINGS = 10  # stretch and shear springs per point of the grid, rounded up (5.9 + 3.9 at N = 64)
 
 
 def square_cloth(n: int, size: float = CLOTH_SIZE_M, height: float = 0.0) -> GarmentMesh:
@@ -105,12 +119,15 @@ def sphere_x(t: float) -> float:
 
 def drape_params(n: int, correction_iterations: int = DEFAULT_CORRECTION_ITERATIONS) -> SolverParams:
     """The scene's solver parameters for an ``n x n`` cloth (see the module's notes on the material)."""
+    point_mass, substep = CLOTH_MASS_KG / n**2, FRAME_S / SUBSTEPS
+    damping = min(SPRING_DAMPING, point_mass / (DAMPED_SPRINGS * substep))  # stable (see the module's notes)
     return DEFAULT_PARAMS.replace(
-        point_mass=CLOTH_MASS_KG / n**2, gravity=(0.0, 0.0, -9.81),
-        substep=FRAME_S / SUBSTEPS, max_substeps=SUBSTEPS, friction=FRICTION,
+        point_mass=point_mass, gravity=(0.0, 0.0, -9.81),
+        substep=substep, max_substeps=SUBSTEPS, friction=FRICTION,
         stretch_stiffness=100.0, shear_stiffness=100.0, bend_stiffness=0.002,
-        stretch_damping=0.01, shear_damping=0.01, bend_damping=1e-5,
+        stretch_damping=damping, shear_damping=damping, bend_damping=1e-5,
         air_damping=0.2, correction_iterations=correction_iterations, limit_ratio=0.01,
+        strain_limit_iterations=STRAIN_LIMIT_ITERATIONS, strain_limit_tolerance=STRAIN_LIMIT_TOLERANCE,
         contact_friction=CONTACT_FRICTION, collision_epsilon=CONTACT_OFFSET_M, contact_margin=CONTACT_MARGIN_M,
     )
 
@@ -173,13 +190,14 @@ def run_drape(n: int = DEFAULT_N, frames: int = DEFAULT_FRAMES, warmup: int = WA
     scene = DrapeScene(n, drape_params(n, correction_iterations))
     worst_penetration = worst_stretch = 0.0
     finite = True
-    wall = []
+    wall, cpu = [], []
     for frame in range(warmup + frames):
-        tic = time.perf_counter()
+        tic, cpu_tic = time.perf_counter(), time.process_time()
         scene.advance()
-        elapsed = time.perf_counter() - tic
+        elapsed, cpu_elapsed = time.perf_counter() - tic, time.process_time() - cpu_tic
         if frame >= warmup:
             wall.append(elapsed)
+            cpu.append(cpu_elapsed)
         if not np.all(np.isfinite(scene.positions)):
             finite = False
             break
@@ -194,6 +212,9 @@ def run_drape(n: int = DEFAULT_N, frames: int = DEFAULT_FRAMES, warmup: int = WA
         "substeps_per_frame": SUBSTEPS,
         "ms_per_frame": round(seconds / max(1, len(wall)) * 1e3, 4),
         "ms_per_frame_median": round(float(np.median(wall)) * 1e3, 4) if wall else math.nan,
+        # the process's CPU time (all threads): steadier than the wall time on a loaded machine, where the wall
+        # time also counts the time other processes held the cores
+        "cpu_ms_per_frame": round(sum(cpu) / max(1, len(cpu)) * 1e3, 4),
         "particle_substeps_per_s": round(particles * SUBSTEPS * len(wall) / seconds) if seconds > 0 else None,
         "max_penetration_m": worst_penetration,
         "max_stretch": round(worst_stretch, 5),
