@@ -2,7 +2,9 @@
 stages' methods wrapped in wall-clock timers (no profiler: cProfile inflates the Python parts).
 
 ``python bench/crowd_stages.py [CHARACTERS] [TICKS]`` (default 4, 120) prints one JSON object: the tick
-median and the solver stages' median per character, and each stage's mean ms per character-frame.
+median and the solver stages' median per character, the process's CPU time per character-frame (all its
+threads), and each stage's mean wall and CPU (its thread's, which the load does not inflate) ms per
+character-frame.
 Stages nest: ``loop.frame`` holds ``pose sample``, ``root motion`` and ``character.step``, which holds
 ``solver.advance`` and ``quality meters``; ``markers (hold)`` and ``serialize`` are the publish.
 """
@@ -30,13 +32,14 @@ STAGES = ((PoseBuffer, "sample", "pose sample"), (PoseBuffer, "root_motion", "ro
           (crowd, "serialize_marker_array", "serialize"), (crowd.Crowd, "feed", "feed (input)"))
 
 
-def timed(function, totals: dict, label: str):
+def timed(function, totals: dict, cpu: dict, label: str):
     def wrapper(*args, **kwargs):
-        tic = time.perf_counter()
+        tic, cpu_tic = time.perf_counter(), time.thread_time()
         try:
             return function(*args, **kwargs)
         finally:
             totals[label] += time.perf_counter() - tic
+            cpu[label] += time.thread_time() - cpu_tic
     return wrapper
 
 
@@ -45,20 +48,27 @@ def main() -> None:
     ticks = int(sys.argv[2]) if len(sys.argv) > 2 else 120
     set_threads(None)
     totals: dict[str, float] = defaultdict(float)
+    cpu: dict[str, float] = defaultdict(float)
     for owner, name, label in STAGES:
-        setattr(owner, name, timed(getattr(owner, name), totals, label))
+        setattr(owner, name, timed(getattr(owner, name), totals, cpu, label))
     group = crowd.Crowd(count, ["one_piece"])
     group.dress_all()
     for _ in range(5):
         group.tick(count)
     totals.clear()
+    cpu.clear()
+    cpu_start = time.process_time()
     samples = [group.tick(count) for _ in range(ticks)]
+    process_cpu = time.process_time() - cpu_start
     print(json.dumps({
         "characters": count, "ticks": ticks, "load_average": round(os.getloadavg()[0], 2),
         "tick_ms_per_character": round(1e3 * float(np.median([s["tick"] for s in samples])) / count, 3),
         "solver_stages_ms_per_character": round(1e3 * float(np.median([s["solver"] for s in samples])) / count, 3),
+        "process_cpu_ms_per_character": round(1e3 * process_cpu / ticks / count, 3),
         "stage_ms_per_character": {label: round(1e3 * total / ticks / count, 3)
                                    for label, total in sorted(totals.items(), key=lambda item: -item[1])},
+        "stage_cpu_ms_per_character": {label: round(1e3 * total / ticks / count, 3)
+                                       for label, total in sorted(cpu.items(), key=lambda item: -item[1])},
     }))
 
 

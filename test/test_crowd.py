@@ -22,6 +22,7 @@ from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import Marker, MarkerArray
 
 from garment_sim_ros.cli import main
+from garment_sim_ros.commands.crowd import Crowd
 from garment_sim_ros.params import ParameterError
 from garment_sim_ros.runtime.character_loop import Status
 from garment_sim_ros.runtime.crowd import character_prefixes
@@ -127,6 +128,19 @@ def test_crowd_command_reports_each_count_and_keeps_every_character_on_its_own_b
     assert summary["summary"] is True and summary["characters_at_60fps"] in (0, 1, 3)
     assert set(summary["tick_ms_by_characters"]) == {"1", "3"}
     assert isinstance(summary["characters_at_60fps_linear"], int) and summary["ms_per_character"] > 0
+
+
+def test_a_crowds_quality_meters_run_on_different_ticks_each_at_quality_rate_hz():
+    """Three characters dressed on one tick, meters at the node's 10 Hz (every 6th frame at 60 fps): all
+    measure their first frame after dressing, then each once in 6 ticks and no two on the same tick (before
+    the spread: all three on every 6th tick, none in the 5 others)."""
+    group = Crowd(3, ["one_piece"])
+    group.dress_all()
+    assert [m.loop.quality_rate_hz for m in group.members] == [10.0] * 3
+    measured = [group.tick(3)["measured"] for _ in range(25)]
+    assert measured[0] == 3 and measured[1:6] == [0] * 5, measured  # the first frame after dressing
+    assert max(measured[1:]) == 1, measured
+    assert all(sum(measured[k:k + 6]) == 3 for k in range(5, 20)), measured  # each once in any 6 ticks
 
 
 def test_crowd_split_over_processes_counts_every_character_once(capsys):

@@ -9,7 +9,8 @@ does at 60 Hz: every character's input, frame and markers, then one MarkerArray 
 serialized (handing the bytes to DDS is ``garment-sim publish``'s figure). ``step_ms`` is the
 characters' ``CharacterLoop.frame`` (pose sampling, root motion, the solver, the quality meters),
 ``solver_ms`` the part in the solver's stages (integration, correction, collision: its own timers),
-``publish_ms`` the markers. Body time advances
+``publish_ms`` the markers, ``measured_max_per_tick`` the most characters whose quality meters ran in
+one tick (at the node's 10 Hz, spread: ``runtime.crowd.make_members``). Body time advances
 1/60 s per tick with no waiting, so ``tick_ms`` is the compute a 60 fps node needs.
 
 The characters' garments go through the solver one after another: the cloth kernels hold the GIL
@@ -84,7 +85,8 @@ class Crowd:
                                               translations, rotations, now_s=t)
 
     def tick(self, count: int) -> dict[str, float]:
-        """One 60 Hz frame of the first ``count`` characters; its stages' wall times, s."""
+        """One 60 Hz frame of the first ``count`` characters: its stages' wall times, s, and how many
+        characters' quality meters ran (``measured``)."""
         self.time_s += 1.0 / RATE_HZ
         t = self.time_s
         tic = time.perf_counter()
@@ -93,9 +95,11 @@ class Crowd:
         fed = time.perf_counter()
         shown: list[Member] = []
         publish_s = solver_s = 0.0
+        measured = 0
         for member in self.members[:count]:
             result = member.loop.frame(t, t)
             if result is not None:
+                measured += result.measured
                 solver_s += sum(r.integration_s + r.correction_s + r.collision_s for r in result.reports)
                 before = time.perf_counter()
                 member.hold(result, character_namespace(self.values["marker_namespace"], member.prefix, True),
@@ -107,7 +111,7 @@ class Crowd:
         serialize_marker_array(crowd_markers(shown, clear=False))
         end = time.perf_counter()
         return {"input": fed - tic, "step": stepped - fed - publish_s, "solver": solver_s,
-                "publish": publish_s + end - stepped, "tick": end - tic}
+                "publish": publish_s + end - stepped, "tick": end - tic, "measured": measured}
 
     def dress_all(self) -> None:
         """Tick every character until all are running (``RuntimeError`` if one is not within ``DRESS_TIMEOUT_S``)."""
@@ -176,7 +180,8 @@ def time_crowd(count: int, processes: int, garments: list[str], resolution: floa
             "mass_points": sum(g["mass_points"] for g in groups), "input_ms": _ms(series["input"]),
             "step_ms": _ms(series["step"]), "solver_ms": _ms(series["solver"]), "publish_ms": _ms(series["publish"]),
             "tick_ms": tick_ms,
-            "tick_p95_ms": _ms(series["tick"], 0.95), "per_character_ms": round(tick_ms / max(sizes), 3),
+            "tick_p95_ms": _ms(series["tick"], 0.95), "measured_max_per_tick": max(series["measured"]),
+            "per_character_ms": round(tick_ms / max(sizes), 3),
             "fps": round(1e3 / tick_ms, 1), "max_penetration_m": max(g["max_penetration_m"] for g in groups),
             "garment_to_own_root_max_m": round(max(g["own"] for g in groups), 4),
             "garment_to_other_root_min_m": None if others == float("inf") else round(others, 4),

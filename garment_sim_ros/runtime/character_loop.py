@@ -52,7 +52,9 @@ largest cost of a frame outside the solver; they run on the first frame at least
 of body time after the last measured one, on the first frame after dressing and on a frame the solver's
 guard fired in (``FrameResult.measured``; the default, infinite, measures every frame; the node passes its
 ``quality_rate_hz`` parameter). A frame made of catch-up pieces measures its last piece only (the one
-whose reports it returns).
+whose reports it returns). ``quality_phase`` (0-1, a fraction of the meters' period) delays the second
+measurement after dressing by that much: a crowd's characters, dressed on one tick, then measure on
+different ticks (``runtime.crowd.make_members``), not all on every 6th one.
 
 Changing garments or resolution (``set_garments``) re-dresses at the next frame, and so does a
 saved spec or mesh file of a worn garment (``check_specs``, from the node's file-watch timer: the
@@ -125,9 +127,10 @@ class CharacterLoop:
     def __init__(self, buffer: PoseBuffer, params: SolverParams, garments: Sequence[str], resolution: float,
                  frame_prefix: str = "", root_frame: str = "", joint_map_file: str = "", logger=None,
                  catch_up_wall_s: float = CATCH_UP_WALL_S, body_file: str = "", garment_path: Sequence[str] = (),
-                 on_event=None, quality_rate_hz: float = math.inf):
+                 on_event=None, quality_rate_hz: float = math.inf, quality_phase: float = 0.0):
         self.buffer = buffer
         self.quality_rate_hz = quality_rate_hz  # quality meters at most this often in body time, Hz
+        self.quality_phase = quality_phase  # the meters' schedule after dressing delayed by this part of a period
         self._measured_at: float | None = None  # body time of the last measured frame (None: measure the next)
         self.events = EventLog(logger, on_event)  # on_event(level, kind, message): the Rerun recording's text log
         self._glitches_logged = 0  # the buffer's joint glitches up to the last one logged
@@ -298,7 +301,8 @@ class CharacterLoop:
         measured one (1 us of slack: at 60 fps and 10 Hz every 6th frame, whatever the rounding)."""
         due = self._measured_at is None or time_s - self._measured_at >= 1.0 / self.quality_rate_hz - 1e-6
         if due:
-            self._measured_at = time_s
+            delay = self.quality_phase / self.quality_rate_hz if self._measured_at is None else 0.0
+            self._measured_at = time_s + delay
         return due
 
     def _note_behind(self, age_s: float) -> None:

@@ -9,7 +9,9 @@
   when there are several, under ``<marker_namespace>`` as before for one (``crowd_markers``).
 - the characters' garments go through the solver one after another: the kernels hold the GIL (no
   ``nogil``), so Python threads over characters would not overlap, and the collision kernels already
-  use both cores (``garment-sim crowd`` measures the cost per character).
+  use both cores (``garment-sim crowd`` measures the cost per character). Tried: the fused frame
+  ``nogil`` and the characters' frames on a thread per core: at load 6.4 on the 2 cores, 2-10 % slower
+  and 3-8 % more CPU per tick (docs/benchmarks.md, "The crowd's tick").
 
 Beyond one process the answer is ROS: one node per group of characters, any number of machines on
 the same DDS domain (README, "A crowd").
@@ -92,10 +94,12 @@ class Member:
 def make_members(prefixes: Sequence[str], values: dict[str, Any], params: SolverParams, logger=None,
                  on_event: Callable[[str, str, str], None] | None = None) -> list[Member]:
     """A ``Member`` per prefix, configured from the node's parameter ``values``; in a crowd each
-    character logs as a child logger named after its prefix and its events start with the prefix."""
+    character logs as a child logger named after its prefix and its events start with the prefix, and
+    the k-th of n measures its quality k/n of the meters' period after the first (``quality_phase``): the
+    meters' cost spread over the ticks."""
     crowd = len(prefixes) > 1
     members = []
-    for prefix in prefixes:
+    for index, prefix in enumerate(prefixes):
         buffer = PoseBuffer(values["fixed_frame"], max_age_s=values["max_skeleton_age"],
                             max_extrapolation_s=values["max_extrapolation"])
         name = prefix.strip("/")
@@ -108,7 +112,7 @@ def make_members(prefixes: Sequence[str], values: dict[str, Any], params: Solver
                              joint_map_file=values["joint_map_file"], body_file=values["body_file"],
                              logger=logger.get_child(name) if crowd and logger is not None and name else logger,
                              on_event=events, garment_path=garment_folders(values["garment_path"]),
-                             quality_rate_hz=values["quality_rate_hz"])
+                             quality_rate_hz=values["quality_rate_hz"], quality_phase=index / len(prefixes))
         members.append(Member(prefix, buffer, loop))
     return members
 
