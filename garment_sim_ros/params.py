@@ -174,6 +174,10 @@ PARAMETERS: tuple[Param, ...] = (
           "cloth between them on it (pressed flesh, ``collision.contact_planes``); 0: off"),
     Param("press_clearance", 0.015, "m", 0.0, 0.1,
           "a contact plane keeps at least this distance from either pressed volume's bone (room for the cloth)"),
+    Param("press_gap", 0.015, "m", 0.0, 0.05,
+          "the cloth's room between pressed volumes: two volumes closer than this get a contact plane, its two "
+          "faces this far apart less the volumes' overlap, never nearer than two collision epsilons "
+          "(``collision.contact_planes``)"),
     Param("collision_mode", "adaptive", "", None, None,
           "adaptive (memo §6.2.1), static only or dynamic only", COLLISION_MODES),
     # layers (garments worn over each other)
@@ -226,6 +230,7 @@ class SolverParams:
     edge_pinch_depth: float
     contact_planes: int
     press_clearance: float
+    press_gap: float
     collision_mode: str
     layer_thickness: float
 

@@ -255,13 +255,13 @@ def local_volume_mesh(kind: int, radii, cut=(-np.inf, np.inf), rings: int = 14, 
 
 
 def contact_planes_at(volumes: VolumeSet, centers: np.ndarray, rotations: np.ndarray, clearance: float,
-                      gap: float) -> np.ndarray:
+                      gap: float, room: float) -> np.ndarray:
     """The contact planes (V, MAX_PLANES, 4) the solver presses ``volumes`` with at the world poses ``centers``
-    (V, 3) m, ``rotations`` (V, 4) xyzw (``collision.contact_planes.press``; ``clearance``, ``gap`` m)."""
+    (V, 3) m, ``rotations`` (V, 4) xyzw (``collision.contact_planes.press``; ``clearance``, ``gap``, ``room`` m)."""
     arrays = VolumeArrays.at_rest(volumes)
     arrays.pos1[...] = centers
     arrays.rot1[...] = quat_to_matrix(np.asarray(rotations, dtype=np.float64))
-    press(tuple(arrays), pressable_pairs(volumes), float(clearance), float(gap))
+    press(tuple(arrays), pressable_pairs(volumes), float(clearance), float(gap), float(room))
     return arrays.planes
 
 
@@ -279,10 +279,10 @@ def flatten_beyond_planes(positions: np.ndarray, normals: np.ndarray, planes: np
         normals[beyond] = normal
 
 
-def volume_meshes(volumes: VolumeSet, pose, press_with: tuple[float, float] | None = None
+def volume_meshes(volumes: VolumeSet, pose, press_with: tuple[float, float, float] | None = None
                   ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Every volume's surface in the world at ``pose``: ``(positions, normals, triangles)`` each; with
-    ``press_with`` (clearance, gap) m, flattened on the contact planes the solver presses them with there."""
+    ``press_with`` (clearance, gap, room) m, flattened on the contact planes the solver presses them with there."""
     centers, rotations = volume_poses(volumes, pose)
     planes = None if press_with is None else contact_planes_at(volumes, centers, rotations, *press_with)
     meshes = []
@@ -323,7 +323,7 @@ def character_camera(pose, joint_map, view: str, width: int, height: int) -> Cam
 def render_character(pose, volumes: VolumeSet, joint_map, garments=(), view: str = "three-quarter", width: int = 360,
                      height: int = 540, volume_alpha: float = 1.0, skeleton: bool = False,
                      body_inset_m: float = 0.0, light_dir=DEFAULT_LIGHT_DIR, supersample: int = 2,
-                     press_with: tuple[float, float] | None = None) -> np.ndarray:
+                     press_with: tuple[float, float, float] | None = None) -> np.ndarray:
     """A picture (H, W, 3) uint8 of a posed character: a floor with the body's shadow, the body
     volumes (``volume_alpha`` < 1: see-through, over the skeleton), the ``garments``
     (``(name, positions, normals, triangles, colors)``, as ``rerun_log.garment_meshes`` gives them)
@@ -333,7 +333,7 @@ def render_character(pose, volumes: VolumeSet, joint_map, garments=(), view: str
     ``body_inset_m`` draws the volumes that much inside their collision surface: the solver keeps
     garment *vertices* out of the volumes (memo §6), so a flat triangle between two vertices resting
     on a curved volume dips into it by its chord's sagitta (~2 mm for 4 cm edges on a 12 cm radius),
-    and an exact-surface body would show through there. ``press_with`` (clearance, gap) m draws the volumes
+    and an exact-surface body would show through there. ``press_with`` (clearance, gap, room) m draws the volumes
     pressed flat where they meet, as the solver's contact planes cut them (``volume_meshes``): the body the
     cloth was kept out of."""
     canvas = Canvas(character_camera(pose, joint_map, view, width, height), supersample=supersample)

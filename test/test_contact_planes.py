@@ -23,6 +23,7 @@ DATA = Path(__file__).parent / "data"
 IDENTITY = np.array([0.0, 0.0, 0.0, 1.0])
 EPS = DEFAULT_PARAMS.collision_epsilon
 CLEARANCE = DEFAULT_PARAMS.press_clearance
+ROOM = DEFAULT_PARAMS.press_gap
 
 
 def _pressed_pair(volume_a: Volume, volume_b: Volume, b_at: float, rest_apart: bool = True):
@@ -96,8 +97,9 @@ def test_a_point_squeezed_between_pressed_spheres_rests_on_the_plane_outside_bot
 def test_volumes_closer_than_the_cloth_needs_meet_on_a_plane_too(planes):
     """Surfaces half a collision epsilon apart, not overlapping: put epsilon out of one, a point is inside
     the other, and the handling moves it back and forth (cmu_131 at 0.77 s: a forearm 3.3 mm off the hip, a
-    skirt point 1.8 mm deep). With the planes the gap gets one too, each face epsilon short of it, and the
-    point ends between the faces, outside both; nothing is counted as pressed, as no volume overlapped."""
+    skirt point 1.8 mm deep). With the planes the gap gets one too, each face half the cloth's room
+    (``press_gap``) short of it, and the point ends between the faces, outside both; nothing is counted as
+    pressed, as no volume overlapped."""
     collider = _pressed_pair(SPHERE_A, SPHERE_B, 0.16 + 0.5 * EPS)
     if not planes:
         collider.set_params(DEFAULT_PARAMS.replace(contact_planes=0))
@@ -108,9 +110,31 @@ def test_volumes_closer_than_the_cloth_needs_meet_on_a_plane_too(planes):
     depth = collider.penetration_depths(x[None])[0]
     if planes:
         plane = (0.16 + 0.5 * EPS) * 0.1 / 0.16
-        assert depth == 0.0 and plane - EPS - 1e-9 <= x[0] <= plane + EPS + 1e-9
+        assert depth == 0.0 and plane - 0.5 * ROOM - 1e-9 <= x[0] <= plane + 0.5 * ROOM + 1e-9
     else:
         assert depth > 0.25 * EPS  # the failure: squeezed into one or the other
+
+
+@pytest.mark.parametrize("overlap", [-0.9, -0.3, 0.0, 0.3, 0.6, 2.0])
+def test_the_faces_leave_the_cloth_its_room_less_what_the_volumes_overlap(overlap):
+    """Spheres 10 and 6 cm round, ``overlap`` times ``press_gap`` into each other (negative: apart): within
+    ``press_gap`` of each other they get a plane, and their faces are that room apart, less the overlap, but
+    never nearer than two collision epsilons (a point put epsilon out of one face is then on the plane),
+    centred on the plane that divides the centres' distance as the radii do."""
+    overlap *= ROOM
+    distance = 0.16 - overlap
+    collider = _pressed_pair(SPHERE_A, SPHERE_B, distance)
+    (_, offset_a), = _faces(collider)[0]
+    (_, offset_b), = _faces(collider)[1]
+    face_a, face_b = offset_a, distance - offset_b
+    assert face_b - face_a == pytest.approx(min(ROOM, max(2.0 * EPS, ROOM - overlap)))
+    assert 0.5 * (face_a + face_b) == pytest.approx(distance * 0.1 / 0.16)
+    assert collider.pressed_depth == pytest.approx(max(0.0, overlap))
+
+
+def test_volumes_further_apart_than_the_cloths_room_get_no_plane():
+    collider = _pressed_pair(SPHERE_A, SPHERE_B, 0.16 + ROOM + 0.001)
+    assert _faces(collider) == [[], []]
 
 
 def _bone_capsule(name, radius):
@@ -247,3 +271,39 @@ def test_the_cloth_between_a_hand_and_the_hip_has_no_bone_through_it():
     assert 0.04 < pressed < 0.07
     bones_rigid, _, _, pressed_rigid = _hand_on_hip(preset("si").replace(contact_planes=0))
     assert bones_rigid > 30 and pressed_rigid == 0.0
+
+
+def _forearm_beside_the_hip(params):
+    """cmu_131's walk, its first 0.2 s at 60 fps, in the short skirt: the right forearm hangs 6-7 mm off the
+    pelvis' volume (not touching, closer than the cloth's room), the skirt between them. Per frame the longest
+    structural spring / rest length; the deepest free point (m) as pressed; how far the forearm's and the
+    pelvis' surfaces are apart in frame 7 (m, along the line the planes measure)."""
+    source = bvh_source(str(DATA / "cmu_131_01_walk_mjstyle.bvh"), loop=False)
+    character = make_character(source.rest_pose, source.joint_map, ["short_skirt"], params, motion=source.fit_poses())
+    solver = character.solvers[0]
+    arrays, names = solver.collider.arrays, solver.volumes.names()
+    stretch, depth, apart = [], 0.0, None
+    for frame, (_, _, reports) in enumerate(simulate_frames(source, character, np.arange(13) / 60.0)):
+        if reports is None:
+            continue
+        stretch.append(reports[0].structural_stretch_max)
+        depth = max(depth, reports[0].max_depth_m)
+        if frame == 7:
+            apart = -contact_planes._overlap(arrays.kinds, arrays.radii, arrays.cuts, arrays.pos1, arrays.rot1,
+                                             names.index("pelvis"), names.index("right_lower_arm"))[0]
+    return np.array(stretch), depth, apart
+
+
+def test_cloth_between_volumes_closer_than_its_room_lies_between_flat_faces():
+    """A forearm hanging beside the hip, 6.5 mm off it: two collision epsilons (6 mm) would leave the pair
+    without a plane, and the skirt points in the wedge between the two curved surfaces, pushed out of one
+    and into the other in turn, were squeezed out along it in opposite directions (a spring 1.56 rest
+    lengths at frame 7, failing issue 11's bound of 1.5). Within ``press_gap`` (15 mm) the pair gets a
+    plane, each face cut back to leave that room, and the cloth lies between flat faces: no spring past 1.5,
+    no point deeper than 1 mm."""
+    stretch, depth, apart = _forearm_beside_the_hip(DEFAULT_PARAMS)
+    assert stretch.max() <= 1.5
+    assert depth <= 0.001
+    assert 2.0 * EPS < apart < DEFAULT_PARAMS.press_gap
+    narrow, _, _ = _forearm_beside_the_hip(DEFAULT_PARAMS.replace(press_gap=2.0 * EPS))
+    assert narrow.max() > 1.5

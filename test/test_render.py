@@ -198,7 +198,7 @@ def test_pressed_volumes_are_drawn_flat_where_they_meet_and_no_longer_overlap():
     source = bvh_source(str(Path(__file__).parent / "data" / "cc_cmu_07_01_walk.bvh"), loop=False)
     volumes = fit_body(source.rest_pose, source.joint_map, motion=source.fit_poses()).volumes
     pose = source.pose(1.9)
-    press_with = (0.015, 0.006)
+    press_with = (0.015, 0.006, 0.02)
     centers, rotations = volume_poses(volumes, pose)
     planes = contact_planes_at(volumes, centers, rotations, *press_with)
     matrices = quat_to_matrix(rotations)

@@ -101,7 +101,7 @@ def advance_substeps(solver, frame, count: int, h: float, v0, a0, yaw_rate: floa
     contact = (collider._eps, collider._friction, collider._c_time, collider._switch_ratio, collider._mode,
                collider._pinch_depth, collider._edge_pinch_depth, collider._grip, collider._margin)
     pressing = collider.pressing
-    press = (collider._clearance, 2.0 * collider._eps)
+    press = collider._press_with
     ticks = np.zeros(4, dtype=np.int64)
     tic = time.perf_counter()
     n_static, n_dynamic, pressed = (run_substeps_parallel if collider.parallel else run_substeps)(
@@ -153,7 +153,7 @@ def run_substeps(x, v, contacts, garment, scratch, uniform, frame_velocity, omeg
         tic = _cycles()
         # the collider's begin_substep: the volumes' poses at the substep's ends, the planes of ``pressing``
         pressed = max(pressed, collision_kernels.substep_poses(arrays, frame_pos, frame_quat, f0, f1, pressing,
-                                                               press[0], press[1]))
+                                                               press[0], press[1], press[2]))
         tac = _cycles()
         ticks[COLLISION] += tac - tic
         for iteration in range(max(1, iterations)):

@@ -89,6 +89,7 @@ class Collider:
         self._mode = _MODES[params.collision_mode]
         self._press = bool(params.contact_planes) and len(self._pressable) > 0
         self._clearance = float(params.press_clearance)
+        self._room = max(float(params.press_gap), 2.0 * self._eps)
         if not self._press:
             self.arrays.planes[...] = no_planes(len(self.volumes))
 
@@ -122,7 +123,7 @@ class Collider:
             raise ValueError(f"Collider.begin_substep: need 0 <= f0 < f1 <= 1, got f0={f0}, f1={f1}")
         # the pressed volumes' planes at the substep's end, carried over it in their local frames
         deepest = kernels.substep_poses(self._packed, self._frame_pos, self._frame_quat, float(f0), float(f1),
-                                        self.pressing, self._clearance, 2.0 * self._eps)
+                                        self.pressing, *self._press_with)
         self.pressed_depth = max(self.pressed_depth, deepest)
 
     @property
@@ -131,9 +132,13 @@ class Collider:
         return self._pressable if self._press else _NO_PAIRS
 
     @property
-    def press_with(self) -> tuple[float, float] | None:
-        """(clearance, gap) m the pressed volumes' planes keep (``contact_planes.press``); None when off."""
-        return (self._clearance, 2.0 * self._eps) if self._press else None
+    def press_with(self) -> tuple[float, float, float] | None:
+        """(clearance, gap, room) m the pressed volumes' planes keep (``contact_planes.press``); None when off."""
+        return self._press_with if self._press else None
+
+    @property
+    def _press_with(self) -> tuple[float, float, float]:
+        return self._clearance, 2.0 * self._eps, self._room
 
     # ------------------------------------------------------------------ handling
     # Each public call checks its arguments, then runs its kernel (``_points``, ``_contacts``, ``_edges``,

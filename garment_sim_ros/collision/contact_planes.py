@@ -6,9 +6,22 @@ between them no position outside both, and the point handling throws it through 
 through the cloth) or fights the length correction (stretch, the guard). Here each such pair gets a
 **contact plane** that cuts both volumes, each keeping its own side: the two cut volumes meet at the plane,
 and a cloth point squeezed between them rests on it, outside both (``geometry.static_projection``,
-``entry``, ``penetration_depth``, ``deepest_on_segment`` read the planes). Each volume's face is ``gap / 2``
-short of the plane, ``gap`` twice the collision epsilon: a point put epsilon outside one face (as the point
-handling does) is then on the plane, not epsilon deep into the other volume.
+``entry``, ``penetration_depth``, ``deepest_on_segment`` read the planes). The two faces are ``room - o``
+apart about the plane (o the overlap; ``room`` is ``press_gap``, 15 mm), but never nearer than ``gap``, twice
+the collision epsilon: a point put epsilon outside one face (as the point handling does) is then at worst
+on the plane, not epsilon deep into the other volume.
+
+**The cloth's room** (issue 11, pinches: a forearm beside the hip, 6.5 mm off it on cmu_131, 6.7 mm on the
+CC walk). Two volumes closer than ``room`` but not touching leave a wedge between their curved surfaces;
+a cloth point in it is put out of one volume along its normal and into the other, and back along the
+other's: the normals are not opposite in a wedge, so the points are squeezed out of it along it, a
+spring's two ends in opposite directions (1.56–1.58 rest lengths for a frame). Such a pair gets a plane
+too, each volume cut back to leave ``room`` between flat, parallel faces, where the cloth lies with
+nothing squeezing it. The compromise, bounded: a volume within ``room`` of another loses at most
+``room / 2`` (7.5 mm) of its surface there beyond its share of any overlap, and as they press into each
+other the faces close to ``gap`` once they overlap by ``room - gap`` (9 mm); a point may so end up to
+``room / 2 - epsilon`` (4.5 mm) inside a volume as it would be uncut (not counted as depth (a), which is
+measured against the volumes as pressed, nor as ``pressed``, which is the overlap).
 
 Which pairs: those on different skeleton frames and, in the pose the body was fitted on
 (``VolumeSet.rest_poses``, the canonical standing pose), disjoint, or overlapping round bones that share no
@@ -19,11 +32,11 @@ crease, inside the pelvis' volume) but share no joint: a thigh raised ~160 deg a
 cartwheel) lies deep in the torso with the skirt's front between them, and only a plane gives that cloth a
 place; at rest their plane cuts the two where the pelvis covers them.
 
-Where (``press``), per pair (a, b) overlapping now, or closer than ``gap`` (a point put epsilon out of one
-would be inside the other, and the handling would pass it back and forth: a forearm 3.3 mm off the hip, a
-skirt point between them 1.8 mm deep), at the substep's end poses: along a line joining points c_a, c_b
-of the two volumes' axes (their local z segments), the volumes reach e_a from c_a and e_b from c_b (their
-surfaces), and overlap by o = e_a + e_b - |c_b - c_a| > -gap. The line joins the axes' nearest points,
+Where (``press``), per pair (a, b) overlapping now, or closer than ``room`` (see above; and a point put
+epsilon out of one would be inside the other, the handling passing it back and forth: a forearm 3.3 mm off
+the hip, a skirt point between them 1.8 mm deep), at the substep's end poses: along a line joining points
+c_a, c_b of the two volumes' axes (their local z segments), the volumes reach e_a from c_a and e_b from c_b
+(their surfaces), and overlap by o = e_a + e_b - |c_b - c_a| > -room. The line joins the axes' nearest points,
 unless the axes lie side by side (a forearm along the hip, an upper arm along the chest): their nearest
 points are then at one end, where the volumes taper, and they overlap most elsewhere, so lines from
 heights sampled along each axis, square to both (within 15 deg), are measured too, and the deepest is
@@ -33,7 +46,7 @@ then is moved, if need be, to keep ``clearance`` from either volume's bone
 segment (the whole segment; a volume without a bone: its axis point c_a): a limb's bone stays on its own
 side with room for the cloth, so the cloth between a forearm and the hip ends between the forearm's bone
 and the pelvis' centre. Bones closer together than twice the clearance: the plane goes halfway between
-the two clearance bounds. (The faces, gap / 2 either side, keep the clearance from their own bone.)
+the two clearance bounds. (The faces, either side of it, keep the clearance from their own bone.)
 
 The planes are stored in each volume's local frame (``VolumeArrays.planes``, (V, MAX_PLANES, 4): unit
 normal out of the kept side, offset m; the used rows first, an offset of +inf ends them), so they move
@@ -213,10 +226,11 @@ def _add_plane(planes, pos, rot, v, nx, ny, nz, cx, cy, cz):
 
 
 @kernel
-def press(arrays, pairs, clearance, gap):
-    """Contact planes of the ``pairs`` (K, 2) that overlap, or are closer than ``gap``, at the substep's end
+def press(arrays, pairs, clearance, gap, room):
+    """Contact planes of the ``pairs`` (K, 2) that overlap, or are closer than ``room``, at the substep's end
     poses (``pos1``, ``rot1``), written into ``planes`` (see the module docstring); ``clearance`` m from the
-    bones, the two faces ``gap`` m apart. Returns the deepest overlap pressed away, m (0: none)."""
+    bones, the two faces ``room`` less the overlap m apart, at least ``gap``. Returns the deepest overlap
+    pressed away, m (0: none)."""
     vol = VolumeArrays(*arrays)  # a plain tuple from Python (see ``collision.kernels``)
     kinds, radii, cuts, bones, bounding_radii = vol.kinds, vol.radii, vol.cuts, vol.bones, vol.bounding_radii
     planes, pos, rot = vol.planes, vol.pos1, vol.rot1
@@ -226,23 +240,22 @@ def press(arrays, pairs, clearance, gap):
     deepest = 0.0
     for p in range(pairs.shape[0]):
         a, b = pairs[p, 0], pairs[p, 1]
-        reach = bounding_radii[a] + bounding_radii[b] + gap
+        reach = bounding_radii[a] + bounding_radii[b] + room
         if (pos[a, 0] - pos[b, 0]) ** 2 + (pos[a, 1] - pos[b, 1]) ** 2 + (pos[a, 2] - pos[b, 2]) ** 2 > reach * reach:
             continue
         overlap, za, zb, ux, uy, uz, distance, reach_a, reach_b = _overlap(kinds, radii, cuts, pos, rot, a, b)
-        if not -gap < overlap < math.inf:  # apart by more than the cloth needs, or axes that meet: no side
+        if not -room < overlap < math.inf:  # apart by more than the cloth needs, or axes that meet: no side
             continue
+        half = 0.5 * min(room, max(gap, room - overlap))  # m, each face from the plane
         deepest = max(deepest, overlap)
         cx, cy, cz = to_world(pos, rot, a, 0.0, 0.0, za)
         # the plane at c + s u: the axes' distance divided in proportion to the reaches, then the clearance
         s = distance * reach_a / (reach_a + reach_b)
-        lo = _bone_extent(bones, pos, rot, a, za, cx, cy, cz, ux, uy, uz, 1.0) + clearance + 0.5 * gap
-        hi = _bone_extent(bones, pos, rot, b, zb, cx, cy, cz, ux, uy, uz, -1.0) - clearance - 0.5 * gap
+        lo = _bone_extent(bones, pos, rot, a, za, cx, cy, cz, ux, uy, uz, 1.0) + clearance + half
+        hi = _bone_extent(bones, pos, rot, b, zb, cx, cy, cz, ux, uy, uz, -1.0) - clearance - half
         s = min(hi, max(lo, s)) if lo <= hi else 0.5 * (lo + hi)
-        _add_plane(planes, pos, rot, a, ux, uy, uz, cx + (s - 0.5 * gap) * ux, cy + (s - 0.5 * gap) * uy,
-                   cz + (s - 0.5 * gap) * uz)
-        _add_plane(planes, pos, rot, b, -ux, -uy, -uz, cx + (s + 0.5 * gap) * ux, cy + (s + 0.5 * gap) * uy,
-                   cz + (s + 0.5 * gap) * uz)
+        _add_plane(planes, pos, rot, a, ux, uy, uz, cx + (s - half) * ux, cy + (s - half) * uy, cz + (s - half) * uz)
+        _add_plane(planes, pos, rot, b, -ux, -uy, -uz, cx + (s + half) * ux, cy + (s + half) * uy, cz + (s + half) * uz)
     return deepest
 
 

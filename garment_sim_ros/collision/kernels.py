@@ -71,7 +71,7 @@ def parallel_twin(function, namespace=None):
 
 # ----------------------------------------------------------------------------- per substep
 @kernel
-def substep_poses(arrays, frame_pos, frame_quat, f0, f1, pressing, clearance, gap):
+def substep_poses(arrays, frame_pos, frame_quat, f0, f1, pressing, clearance, gap, room):
     """The volumes' poses at frame fractions ``f0`` and ``f1`` (the substep's ends), interpolated between the
     frame's (``frame_pos`` (2, V, 3) m, ``frame_quat`` (2, V, 4) xyzw), their motion over the substep, and the
     contact planes of the ``pressing`` pairs (P, 2) at its end (``contact_planes.press``; none: the planes are
@@ -83,7 +83,7 @@ def substep_poses(arrays, frame_pos, frame_quat, f0, f1, pressing, clearance, ga
     substep_motion(vol.pos0, vol.rot0, vol.pos1, vol.rot1, vol.displacement, vol.chord)
     if pressing.shape[0] == 0:
         return 0.0
-    return press(arrays, pressing, clearance, gap)
+    return press(arrays, pressing, clearance, gap, room)
 
 
 # ----------------------------------------------------------------------------- drivers over points
