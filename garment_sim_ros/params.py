@@ -89,7 +89,7 @@ PARAMETERS: tuple[Param, ...] = (
     Param("limb_step_ratio", 0.25, "1", 0.0, 100.0,
           "substeps from the limbs' speed: enough per frame (at most max_limb_substeps) that no point of a body "
           "volume's surface moves more than this x the volume's radius in one substep; 0: only substep decides"),
-    Param("max_limb_substeps", 16, "1", 1, 200,
+    Param("max_limb_substeps", 24, "1", 1, 200,
           "at most this many substeps per frame from the limbs' speed (limb_step_ratio): compute, never lag, so "
           "apart from max_substeps, which caps the substeps of a long frame"),
     Param("correction_iterations", 4, "1", 0, 200,
