@@ -87,8 +87,11 @@ PARAMETERS: tuple[Param, ...] = (
     Param("max_substeps", 8, "1", 1, 200,
           "IC_max: at most this many substeps per frame; past it the garment lags real time (reported)"),
     Param("limb_step_ratio", 0.25, "1", 0.0, 100.0,
-          "substeps from the limbs' speed: enough per frame (at most max_substeps) that no point of a body "
+          "substeps from the limbs' speed: enough per frame (at most max_limb_substeps) that no point of a body "
           "volume's surface moves more than this x the volume's radius in one substep; 0: only substep decides"),
+    Param("max_limb_substeps", 24, "1", 1, 200,
+          "at most this many substeps per frame from the limbs' speed (limb_step_ratio): compute, never lag, so "
+          "apart from max_substeps, which caps the substeps of a long frame"),
     Param("correction_iterations", 4, "1", 0, 200,
           "Provot length-correction iterations per substep (contacts are handled after the first)"),
     Param("limit_ratio", 0.01, "1", 0.0, 1.0,
@@ -193,6 +196,7 @@ class SolverParams:
     substep: float
     max_substeps: int
     limb_step_ratio: float
+    max_limb_substeps: int
     correction_iterations: int
     limit_ratio: float
     strain_limit_iterations: int

@@ -99,13 +99,15 @@ def substep_plan(dt: float, params: SolverParams, limb_travel: float = 0.0) -> t
     ``max_substeps`` (memo's IC_max); when capped, substeps of ``h`` and the garment lags.
 
     ``limb_travel`` (``volume_travel``, in volume radii) asks for more when the limbs are fast: with
-    ``limb_step_ratio`` > 0 at least ``limb_travel / limb_step_ratio`` substeps, up to ``max_substeps``
-    (never a lag for it: the frame is still simulated in full)."""
+    ``limb_step_ratio`` > 0 at least ``limb_travel / limb_step_ratio`` substeps, up to ``max_limb_substeps``
+    (never a lag for it: the frame is still simulated in full). Its own cap: at 2x playback and 30 fps
+    the limbs asked for more than ``max_substeps`` in most frames, and the stretch (d) failed on it."""
     needed = max(1, math.ceil(dt / params.substep - 1e-9))
     if needed > params.max_substeps:
         return params.max_substeps, params.substep
     if params.limb_step_ratio > 0.0:
-        needed = min(params.max_substeps, max(needed, math.ceil(limb_travel / params.limb_step_ratio - 1e-9)))
+        limbs = math.ceil(limb_travel / params.limb_step_ratio - 1e-9)
+        needed = max(needed, min(params.max_limb_substeps, limbs))
     return needed, dt / needed
 
 
