@@ -283,41 +283,22 @@ def _entered_end(vol, v, triangles, t, u, w, xs):
 
 
 @kernel
-def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, pinch_depth, corners):
-    """Move triangle t, crossed by volume v's axis at local height z (barycentric u, w), off the bone to
-    its side (unit local direction (ux, uy), ``_side_direction``): each corner short of ``eps`` along it
-    goes there -- the least move that takes the bone out of the triangle, seen along the bone; a corner
-    already on that side stays. A corner so moved that is inside v goes out across v's surface, radially
-    (it stays on its side), but not into another volume (``_room``: a pinch); an approaching velocity
-    relative to v's surface is removed. A triangle with an attached corner (it rides on the body) goes to
-    the side its attached corners are on (``_attached_side``) when the bone reached it in this substep; one
-    caught already, or whose attached corners straddle the bone, is left as it is, and so is one that would
-    end with a corner deeper than ``pinch_depth`` in another volume: where two volumes overlap more than
-    that round a bone there is no room for cloth, and contact wins.
-    Returns whether it moved."""
-    pos1, rot1 = vol.pos1, vol.rot1
+def _load_corners(vol, v, x, triangles, t, corners):
+    """Triangle t's corners of ``x`` into ``corners`` (3, 3), in volume v's local frame at the end pose."""
     for k in range(3):
         i = triangles[t, k]
-        corners[k, 0], corners[k, 1], corners[k, 2] = to_local(pos1, rot1, v, x[i, 0], x[i, 1], x[i, 2])
-    if inv_mass[triangles[t, 0]] == 0.0 or inv_mass[triangles[t, 1]] == 0.0 or inv_mass[triangles[t, 2]] == 0.0:
-        if _crossed_at_start(vol, v, xs, triangles[t, 0], triangles[t, 1], triangles[t, 2]):
-            # caught before this substep: its free neighbours hold it (their side, by continuity); moved, it
-            # would pass back and forth with them (CC jump, short skirt, 2x 60 fps: 11 -> 88 frames)
-            return False
-        ux, uy, clear = _attached_side(triangles, t, inv_mass, corners, eps)
-        if not clear:
-            return False  # its attached corners straddle the bone: no move of the free ones clears it
-        uz = 0.0
-    else:
-        uz = _entered_end(vol, v, triangles, t, u, w, xs)
-        ux, uy = 0.0, 0.0
-        if uz == 0.0:
-            ux, uy = _side_direction(vol, v, z, triangles, t, u, w, xs, x, corners, eps)
-    # a bone's end that reached the triangle from beyond it (a hand poking into a skirt): the triangle goes
-    # back past the end along the bone, where it was; moved across the bone there, it only passes the bone on
-    # to a neighbour (cmu_01_01 long skirt, 2x 60 fps: the wrist through the skirt, then the arm to the elbow)
+        corners[k, 0], corners[k, 1], corners[k, 2] = to_local(vol.pos1, vol.rot1, v, x[i, 0], x[i, 1], x[i, 2])
+
+
+@kernel
+def _destinations(vol, v, ux, uy, uz, eps, pinch_depth, corners):
+    """Where the corners (``corners`` (3, 3), local, replaced by their destinations in the simulation frame) go
+    off volume v's bone along the local unit (ux, uy, uz): across the bone (uz = 0), each corner short of ``eps``
+    along it goes there; past its end (uz = +-1), each corner short of ``eps`` beyond that end. A corner so moved
+    that is inside v goes out across v's surface (radially, or across the end's cut), but not into another
+    volume (``_room``). False when a corner would end deeper than ``pinch_depth`` in another volume."""
     end = vol.bones[v, 1] if uz > 0.0 else -vol.bones[v, 0]
-    for k in range(3):  # where each corner goes, in the simulation frame (corners[k] is then world)
+    for k in range(3):
         lx, ly, lz = corners[k, 0], corners[k, 1], corners[k, 2]
         if uz != 0.0:
             short = end + eps - lz * uz
@@ -325,7 +306,7 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
                 lz += short * uz
                 if static_projection(vol.kinds[v], vol.radii, vol.cuts, vol.planes, v, lx, ly, lz)[0]:
                     cut = vol.cuts[v, 1] if uz > 0.0 else -vol.cuts[v, 0]
-                    lz += uz * _room(vol, v, lx, ly, lz, 0.0, 0.0, uz, cut - lz * uz + eps)  # out across its cap
+                    lz += uz * _room(vol, v, lx, ly, lz, 0.0, 0.0, uz, cut - lz * uz + eps)
         else:
             short = eps - (lx * ux + ly * uy)
             if short > 0.0:
@@ -338,9 +319,48 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
                     rx, ry = lx / radial, ly / radial
                     out = _room(vol, v, lx, ly, lz, rx, ry, 0.0, out)
                     lx, ly = lx + out * rx, ly + out * ry
-        corners[k, 0], corners[k, 1], corners[k, 2] = to_world(pos1, rot1, v, lx, ly, lz)
+        corners[k, 0], corners[k, 1], corners[k, 2] = to_world(vol.pos1, vol.rot1, v, lx, ly, lz)
         if depth_elsewhere(vol, v, corners[k, 0], corners[k, 1], corners[k, 2]) > pinch_depth:
             return False  # no room for the cloth between this bone and another volume: contact wins
+    return True
+
+
+@kernel
+def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, pinch_depth, corners):
+    """Move triangle t, crossed by volume v's axis at local height z (barycentric u, w), off the bone
+    (``_destinations``). A triangle the bone's end reached from beyond that end (``_entered_end``: a hand
+    poking into a skirt) goes back past the end along the bone; moved across the bone there, it only passed the
+    bone on to a neighbour, and the limb went through (cmu_01_01, long skirt, 2x 60 fps: the wrist, then the arm
+    to the elbow for 150 frames). Where that has no room (past an elbow, into the upper arm) and for every other
+    crossing it goes across the bone to its side (unit local direction (ux, uy), ``_side_direction``): the least
+    move that takes the bone out of the triangle, seen along the bone; a corner already on that side stays. An
+    approaching velocity relative to v's surface is removed. A triangle with an attached corner (it rides on
+    the body) goes to the side its attached corners are on (``_attached_side``) when the bone reached it in this
+    substep; one caught already, or whose attached corners straddle the bone, is left as it is, and so is one
+    that would end with a corner deeper than ``pinch_depth`` in another volume: where two volumes overlap more
+    than that round a bone there is no room for cloth, and contact wins.
+    Returns whether it moved."""
+    _load_corners(vol, v, x, triangles, t, corners)
+    ux, uy, uz = 0.0, 0.0, 0.0
+    if inv_mass[triangles[t, 0]] == 0.0 or inv_mass[triangles[t, 1]] == 0.0 or inv_mass[triangles[t, 2]] == 0.0:
+        if _crossed_at_start(vol, v, xs, triangles[t, 0], triangles[t, 1], triangles[t, 2]):
+            # caught before this substep: its free neighbours hold it (their side, by continuity); moved, it
+            # would pass back and forth with them (CC jump, short skirt, 2x 60 fps: 11 -> 88 frames)
+            return False
+        ux, uy, clear = _attached_side(triangles, t, inv_mass, corners, eps)
+        if not clear:
+            return False  # its attached corners straddle the bone: no move of the free ones clears it
+        if not _destinations(vol, v, ux, uy, 0.0, eps, pinch_depth, corners):
+            return False
+    else:
+        uz = _entered_end(vol, v, triangles, t, u, w, xs)
+        if uz == 0.0 or not _destinations(vol, v, 0.0, 0.0, uz, eps, pinch_depth, corners):
+            uz = 0.0
+            _load_corners(vol, v, x, triangles, t, corners)
+            ux, uy = _side_direction(vol, v, z, triangles, t, u, w, xs, x, corners, eps)
+            if not _destinations(vol, v, ux, uy, 0.0, eps, pinch_depth, corners):
+                return False
+    pos1, rot1 = vol.pos1, vol.rot1
     wnx, wny, wnz = rotate(rot1, v, ux, uy, uz)
     for k in range(3):
         i = triangles[t, k]
