@@ -267,19 +267,20 @@ def _room(vol, v, lx, ly, lz, ux, uy, uz, length):
 
 @kernel
 def _entered_end(vol, v, triangles, t, u, w, xs):
-    """+1 (-1) when volume v's bone reached triangle t, crossed at barycentric (u, w), past its end (start):
-    the crossed point lay beyond that end along the bone at the substep's start; 0 when it came from the side."""
+    """Whether volume v's bone reached triangle t, crossed at barycentric (u, w), past its far end: the crossed
+    point lay beyond that end along the bone at the substep's start, and the end is where the limb ends, inside
+    no other volume (a wrist, an ankle with no foot; an elbow is inside the forearm's volume, a knee inside the
+    shin's). Its near end is always at the trunk or the limb above (``body.fitting``)."""
     a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
     if _crossed_at_start(vol, v, xs, a, b, c):
-        return 0.0
+        return False
     wa = 1.0 - u - w
     lz = to_local(vol.pos0, vol.rot0, v, wa * xs[a, 0] + u * xs[b, 0] + w * xs[c, 0],
                   wa * xs[a, 1] + u * xs[b, 1] + w * xs[c, 1], wa * xs[a, 2] + u * xs[b, 2] + w * xs[c, 2])[2]
-    if lz > vol.bones[v, 1]:
-        return 1.0
-    if lz < vol.bones[v, 0]:
-        return -1.0
-    return 0.0
+    if lz <= vol.bones[v, 1]:
+        return False
+    ex, ey, ez = to_world(vol.pos1, vol.rot1, v, 0.0, 0.0, vol.bones[v, 1])
+    return depth_elsewhere(vol, v, ex, ey, ez) == 0.0
 
 
 @kernel
@@ -291,22 +292,19 @@ def _load_corners(vol, v, x, triangles, t, corners):
 
 
 @kernel
-def _destinations(vol, v, ux, uy, uz, eps, pinch_depth, corners):
+def _destinations(vol, v, ux, uy, past_end, eps, pinch_depth, corners):
     """Where the corners (``corners`` (3, 3), local, replaced by their destinations in the simulation frame) go
-    off volume v's bone along the local unit (ux, uy, uz): across the bone (uz = 0), each corner short of ``eps``
-    along it goes there; past its end (uz = +-1), each corner short of ``eps`` beyond that end. A corner so moved
-    that is inside v goes out across v's surface (radially, or across the end's cut), but not into another
+    off volume v's bone: across it, along the local unit (ux, uy, 0), each corner short of ``eps`` along it goes
+    there; ``past_end``: along the bone, each corner short of ``eps`` beyond its far end goes there. A corner so
+    moved that is inside v goes out across v's surface (radially, or across its far cut), but not into another
     volume (``_room``). False when a corner would end deeper than ``pinch_depth`` in another volume."""
-    end = vol.bones[v, 1] if uz > 0.0 else -vol.bones[v, 0]
     for k in range(3):
         lx, ly, lz = corners[k, 0], corners[k, 1], corners[k, 2]
-        if uz != 0.0:
-            short = end + eps - lz * uz
-            if short > 0.0:
-                lz += short * uz
+        if past_end:
+            if lz < vol.bones[v, 1] + eps:
+                lz = vol.bones[v, 1] + eps
                 if static_projection(vol.kinds[v], vol.radii, vol.cuts, vol.planes, v, lx, ly, lz)[0]:
-                    cut = vol.cuts[v, 1] if uz > 0.0 else -vol.cuts[v, 0]
-                    lz += uz * _room(vol, v, lx, ly, lz, 0.0, 0.0, uz, cut - lz * uz + eps)
+                    lz += _room(vol, v, lx, ly, lz, 0.0, 0.0, 1.0, vol.cuts[v, 1] - lz + eps)
         else:
             short = eps - (lx * ux + ly * uy)
             if short > 0.0:
@@ -328,17 +326,17 @@ def _destinations(vol, v, ux, uy, uz, eps, pinch_depth, corners):
 @kernel
 def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, pinch_depth, corners):
     """Move triangle t, crossed by volume v's axis at local height z (barycentric u, w), off the bone
-    (``_destinations``). A triangle the bone's end reached from beyond that end (``_entered_end``: a hand
-    poking into a skirt) goes back past the end along the bone; moved across the bone there, it only passed the
-    bone on to a neighbour, and the limb went through (cmu_01_01, long skirt, 2x 60 fps: the wrist, then the arm
-    to the elbow for 150 frames). Where that has no room (past an elbow, into the upper arm) and for every other
-    crossing it goes across the bone to its side (unit local direction (ux, uy), ``_side_direction``): the least
-    move that takes the bone out of the triangle, seen along the bone; a corner already on that side stays. An
-    approaching velocity relative to v's surface is removed. A triangle with an attached corner (it rides on
-    the body) goes to the side its attached corners are on (``_attached_side``) when the bone reached it in this
-    substep; one caught already, or whose attached corners straddle the bone, is left as it is, and so is one
-    that would end with a corner deeper than ``pinch_depth`` in another volume: where two volumes overlap more
-    than that round a bone there is no room for cloth, and contact wins.
+    (``_destinations``). A triangle the limb's end reached from beyond it (``_entered_end``: a hand poking into a
+    skirt) goes back past the end along the bone; moved across the bone there, it only passed the bone on to a
+    neighbour, and the limb went through (cmu_01_01, long skirt, 2x 60 fps: the wrist, then the arm to the elbow
+    for 150 frames). Where that has no room, and for every other crossing, it goes across the bone to its side
+    (unit local direction (ux, uy), ``_side_direction``): the least move that takes the bone out of the triangle,
+    seen along the bone; a corner already on that side stays. An approaching velocity relative to v's surface is
+    removed. A triangle with an attached corner (it rides on the body) goes to the side its attached corners are
+    on (``_attached_side``) when the bone reached it in this substep; one caught already, or whose attached
+    corners straddle the bone, is left as it is, and so is one that would end with a corner deeper than
+    ``pinch_depth`` in another volume: where two volumes overlap more than that round a bone there is no room
+    for cloth, and contact wins.
     Returns whether it moved."""
     _load_corners(vol, v, x, triangles, t, corners)
     ux, uy, uz = 0.0, 0.0, 0.0
@@ -350,16 +348,16 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
         ux, uy, clear = _attached_side(triangles, t, inv_mass, corners, eps)
         if not clear:
             return False  # its attached corners straddle the bone: no move of the free ones clears it
-        if not _destinations(vol, v, ux, uy, 0.0, eps, pinch_depth, corners):
+        if not _destinations(vol, v, ux, uy, False, eps, pinch_depth, corners):
             return False
+    elif _entered_end(vol, v, triangles, t, u, w, xs) and _destinations(vol, v, 0.0, 0.0, True, eps, pinch_depth,
+                                                                         corners):
+        uz = 1.0
     else:
-        uz = _entered_end(vol, v, triangles, t, u, w, xs)
-        if uz == 0.0 or not _destinations(vol, v, 0.0, 0.0, uz, eps, pinch_depth, corners):
-            uz = 0.0
-            _load_corners(vol, v, x, triangles, t, corners)
-            ux, uy = _side_direction(vol, v, z, triangles, t, u, w, xs, x, corners, eps)
-            if not _destinations(vol, v, ux, uy, 0.0, eps, pinch_depth, corners):
-                return False
+        _load_corners(vol, v, x, triangles, t, corners)
+        ux, uy = _side_direction(vol, v, z, triangles, t, u, w, xs, x, corners, eps)
+        if not _destinations(vol, v, ux, uy, False, eps, pinch_depth, corners):
+            return False
     pos1, rot1 = vol.pos1, vol.rot1
     wnx, wny, wnz = rotate(rot1, v, ux, uy, uz)
     for k in range(3):
