@@ -598,6 +598,24 @@ def test_a_strip_that_slides_over_a_still_limb_goes_back_to_the_side_it_came_fro
     assert not bone_through_strip(x, np.zeros(3)) and np.all(x[:, 0] >= 0.003 - 1e-12)
 
 
+def test_a_limb_end_poking_into_a_strip_pushes_it_along_the_bone_past_the_end():
+    """An upright limb rises 3 cm into a level strip held 1 cm beyond its bone's far end (a hand poking into a
+    skirt): at the substep's end the bone passes through the strip 2 cm short of its end. Moved across the bone,
+    a triangle only passes it on to its neighbour (cmu_01_01, issue 11); the crossed triangle goes back past
+    the end, along the bone, and no corner moves sideways."""
+    end = np.array([0.0, 0.0, -0.10])
+    c = make_collider([forearm()], 4, [0.0, 0.0, -0.13], pos1=end, collision_epsilon=0.003)
+    x_start = strip(0.01)
+    x = x_start.copy()
+    before, moved, _ = sweep(c, x_start, x)
+    assert np.array_equal(before, x_start) and bone_through_strip(before, end)
+    assert moved >= 1 and not bone_through_strip(x, end)
+    assert np.allclose(x[:, :2], x_start[:, :2])  # along the bone only
+    assert np.all(x[:3, 2] >= end[2] + 0.12 + 0.003 - 1e-12)  # the crossed triangle, past the bone's end by eps
+    assert np.array_equal(x[3], x_start[3])  # the other triangle's own corner stays
+    assert np.all(c.penetration_depths(x) == 0.0)
+
+
 def grid_cloth(cells, spacing):
     """A level square grid of ``cells`` x ``cells`` cells from the origin, two triangles a cell, row by row."""
     side = np.arange(cells + 1) * spacing

@@ -87,6 +87,21 @@ def test_a_forearm_at_the_hip_does_not_stay_caught_under_the_waistband():
     assert not any(through[90:])
 
 
+def test_a_hand_poking_into_the_skirt_does_not_take_the_arm_through_it():
+    """Issue 11, cmu_01_01 (jumps), long skirt, 3x at 60 fps: at 2.27 s the right wrist, the forearm bone's end,
+    reaches the skirt from beyond it. Each triangle it reached went across the bone to a side, which only passed
+    the bone on to a neighbour (all 16 passes of the crossing handling moving two triangles back and forth); the
+    hand went in, the skirt slid up the forearm to the elbow and stayed caught there: frames 136-154 with the
+    arm through (one numba thread or two; 150 frames at 2x 60 fps). Pushed back past the wrist along the bone
+    (``crossing._entered_end``), the skirt stays in front of the hand."""
+    source = bvh_source(str(DATA / "cmu_01_01_jumps_turnaround.bvh"), loop=False, speed=3.0)
+    character = make_character(source.rest_pose, source.joint_map, ["long_skirt"], preset("si"),
+                               motion=source.fit_poses())
+    reports = [r[0] for _, _, r in simulate_frames(source, character, np.arange(161) / 60.0) if r is not None]
+    assert len(reports) == 160
+    assert [k for k, report in enumerate(reports) if report.bones_through] == []
+
+
 def test_a_thigh_raised_against_the_belly_does_not_throw_the_skirt():
     """CC cartwheel, short skirt, 1x at 60 fps, to just past where the guard first fired (t = 1.03 s; issue
     11): the right thigh raised against the belly overlaps the torso's volume by 3-7 cm and squeezes the

@@ -244,14 +244,14 @@ def _attached_side(triangles, t, inv_mass, corners, clearance):
 
 
 @kernel
-def _room(vol, v, lx, ly, lz, ux, uy, length):
-    """How far from volume v's local point l the cloth can go along the local (ux, uy, 0), up to
+def _room(vol, v, lx, ly, lz, ux, uy, uz, length):
+    """How far from volume v's local point l the cloth can go along the local unit (ux, uy, uz), up to
     ``length``, before it enters another volume; a volume l is inside already (the neighbour at a joint)
     does not stop it. In a pinch (a forearm on the hip) the cloth between the two stays between them."""
     kinds, radii, cuts, bounding_radii = vol.kinds, vol.radii, vol.cuts, vol.bounding_radii
     pos, rot = vol.pos1, vol.rot1
     ax, ay, az = to_world(pos, rot, v, lx, ly, lz)
-    bx, by, bz = to_world(pos, rot, v, lx + length * ux, ly + length * uy, lz)
+    bx, by, bz = to_world(pos, rot, v, lx + length * ux, ly + length * uy, lz + length * uz)
     room = length
     for o in range(kinds.shape[0]):
         if o == v or (ax - pos[o, 0]) ** 2 + (ay - pos[o, 1]) ** 2 + (az - pos[o, 2]) ** 2 > (
@@ -266,22 +266,80 @@ def _room(vol, v, lx, ly, lz, ux, uy, length):
 
 
 @kernel
-def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, pinch_depth, corners):
-    """Move triangle t, crossed by volume v's axis at local height z (barycentric u, w), off the bone to
-    its side (unit local direction (ux, uy), ``_side_direction``): each corner short of ``eps`` along it
-    goes there -- the least move that takes the bone out of the triangle, seen along the bone; a corner
-    already on that side stays. A corner so moved that is inside v goes out across v's surface, radially
-    (it stays on its side), but not into another volume (``_room``: a pinch); an approaching velocity
-    relative to v's surface is removed. A triangle with an attached corner (it rides on the body) goes to
-    the side its attached corners are on (``_attached_side``) when the bone reached it in this substep; one
-    caught already, or whose attached corners straddle the bone, is left as it is, and so is one that would
-    end with a corner deeper than ``pinch_depth`` in another volume: where two volumes overlap more than
-    that round a bone there is no room for cloth, and contact wins.
-    Returns whether it moved."""
-    pos1, rot1 = vol.pos1, vol.rot1
+def _entered_end(vol, v, triangles, t, u, w, xs):
+    """Whether volume v's bone reached triangle t, crossed at barycentric (u, w), past its far end: the crossed
+    point lay beyond that end along the bone at the substep's start, and the end is where the limb ends, inside
+    no other volume (a wrist, an ankle with no foot; an elbow is inside the forearm's volume, a knee inside the
+    shin's). Its near end is always at the trunk or the limb above (``body.fitting``)."""
+    a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+    if _crossed_at_start(vol, v, xs, a, b, c):
+        return False
+    wa = 1.0 - u - w
+    lz = to_local(vol.pos0, vol.rot0, v, wa * xs[a, 0] + u * xs[b, 0] + w * xs[c, 0],
+                  wa * xs[a, 1] + u * xs[b, 1] + w * xs[c, 1], wa * xs[a, 2] + u * xs[b, 2] + w * xs[c, 2])[2]
+    if lz <= vol.bones[v, 1]:
+        return False
+    ex, ey, ez = to_world(vol.pos1, vol.rot1, v, 0.0, 0.0, vol.bones[v, 1])
+    return depth_elsewhere(vol, v, ex, ey, ez) == 0.0
+
+
+@kernel
+def _load_corners(vol, v, x, triangles, t, corners):
+    """Triangle t's corners of ``x`` into ``corners`` (3, 3), in volume v's local frame at the end pose."""
     for k in range(3):
         i = triangles[t, k]
-        corners[k, 0], corners[k, 1], corners[k, 2] = to_local(pos1, rot1, v, x[i, 0], x[i, 1], x[i, 2])
+        corners[k, 0], corners[k, 1], corners[k, 2] = to_local(vol.pos1, vol.rot1, v, x[i, 0], x[i, 1], x[i, 2])
+
+
+@kernel
+def _destinations(vol, v, ux, uy, past_end, eps, pinch_depth, corners):
+    """Where the corners (``corners`` (3, 3), local, replaced by their destinations in the simulation frame) go
+    off volume v's bone: across it, along the local unit (ux, uy, 0), each corner short of ``eps`` along it goes
+    there; ``past_end``: along the bone, each corner short of ``eps`` beyond its far end goes there. A corner so
+    moved that is inside v goes out across v's surface (radially, or across its far cut), but not into another
+    volume (``_room``). False when a corner would end deeper than ``pinch_depth`` in another volume."""
+    for k in range(3):
+        lx, ly, lz = corners[k, 0], corners[k, 1], corners[k, 2]
+        if past_end:
+            if lz < vol.bones[v, 1] + eps:
+                lz = vol.bones[v, 1] + eps
+                if static_projection(vol.kinds[v], vol.radii, vol.cuts, vol.planes, v, lx, ly, lz)[0]:
+                    lz += _room(vol, v, lx, ly, lz, 0.0, 0.0, 1.0, vol.cuts[v, 1] - lz + eps)
+        else:
+            short = eps - (lx * ux + ly * uy)
+            if short > 0.0:
+                lx, ly = lx + short * ux, ly + short * uy
+                inside, sx, sy, sz, nx, ny, nz = static_projection(vol.kinds[v], vol.radii, vol.cuts, vol.planes,
+                                                                     v, lx, ly, lz)
+                if inside:
+                    out = math.sqrt((sx - lx) ** 2 + (sy - ly) ** 2) + eps
+                    radial = math.sqrt(lx * lx + ly * ly)  # >= eps: it is on the side now
+                    rx, ry = lx / radial, ly / radial
+                    out = _room(vol, v, lx, ly, lz, rx, ry, 0.0, out)
+                    lx, ly = lx + out * rx, ly + out * ry
+        corners[k, 0], corners[k, 1], corners[k, 2] = to_world(vol.pos1, vol.rot1, v, lx, ly, lz)
+        if depth_elsewhere(vol, v, corners[k, 0], corners[k, 1], corners[k, 2]) > pinch_depth:
+            return False  # no room for the cloth between this bone and another volume: contact wins
+    return True
+
+
+@kernel
+def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, pinch_depth, corners):
+    """Move triangle t, crossed by volume v's axis at local height z (barycentric u, w), off the bone
+    (``_destinations``). A triangle the limb's end reached from beyond it (``_entered_end``: a hand poking into a
+    skirt) goes back past the end along the bone; moved across the bone there, it only passed the bone on to a
+    neighbour, and the limb went through (cmu_01_01, long skirt, 2x 60 fps: the wrist, then the arm to the elbow
+    for 150 frames). Where that has no room, and for every other crossing, it goes across the bone to its side
+    (unit local direction (ux, uy), ``_side_direction``): the least move that takes the bone out of the triangle,
+    seen along the bone; a corner already on that side stays. An approaching velocity relative to v's surface is
+    removed. A triangle with an attached corner (it rides on the body) goes to the side its attached corners are
+    on (``_attached_side``) when the bone reached it in this substep; one caught already, or whose attached
+    corners straddle the bone, is left as it is, and so is one that would end with a corner deeper than
+    ``pinch_depth`` in another volume: where two volumes overlap more than that round a bone there is no room
+    for cloth, and contact wins.
+    Returns whether it moved."""
+    _load_corners(vol, v, x, triangles, t, corners)
+    ux, uy, uz = 0.0, 0.0, 0.0
     if inv_mass[triangles[t, 0]] == 0.0 or inv_mass[triangles[t, 1]] == 0.0 or inv_mass[triangles[t, 2]] == 0.0:
         if _crossed_at_start(vol, v, xs, triangles[t, 0], triangles[t, 1], triangles[t, 2]):
             # caught before this substep: its free neighbours hold it (their side, by continuity); moved, it
@@ -290,25 +348,18 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
         ux, uy, clear = _attached_side(triangles, t, inv_mass, corners, eps)
         if not clear:
             return False  # its attached corners straddle the bone: no move of the free ones clears it
+        if not _destinations(vol, v, ux, uy, False, eps, pinch_depth, corners):
+            return False
+    elif _entered_end(vol, v, triangles, t, u, w, xs) and _destinations(vol, v, 0.0, 0.0, True, eps, pinch_depth,
+                                                                         corners):
+        uz = 1.0
     else:
+        _load_corners(vol, v, x, triangles, t, corners)
         ux, uy = _side_direction(vol, v, z, triangles, t, u, w, xs, x, corners, eps)
-    for k in range(3):  # where each corner goes, in the simulation frame (corners[k] is then world)
-        lx, ly, lz = corners[k, 0], corners[k, 1], corners[k, 2]
-        short = eps - (lx * ux + ly * uy)
-        if short > 0.0:
-            lx, ly = lx + short * ux, ly + short * uy
-            inside, sx, sy, sz, nx, ny, nz = static_projection(vol.kinds[v], vol.radii, vol.cuts, vol.planes, v,
-                                                                 lx, ly, lz)
-            if inside:
-                out = math.sqrt((sx - lx) ** 2 + (sy - ly) ** 2) + eps
-                radial = math.sqrt(lx * lx + ly * ly)  # >= eps: it is on the side now
-                rx, ry = lx / radial, ly / radial
-                out = _room(vol, v, lx, ly, lz, rx, ry, out)
-                lx, ly = lx + out * rx, ly + out * ry
-        corners[k, 0], corners[k, 1], corners[k, 2] = to_world(pos1, rot1, v, lx, ly, lz)
-        if depth_elsewhere(vol, v, corners[k, 0], corners[k, 1], corners[k, 2]) > pinch_depth:
-            return False  # no room for the cloth between this bone and another volume: contact wins
-    wnx, wny, wnz = rotate(rot1, v, ux, uy, 0.0)
+        if not _destinations(vol, v, ux, uy, False, eps, pinch_depth, corners):
+            return False
+    pos1, rot1 = vol.pos1, vol.rot1
+    wnx, wny, wnz = rotate(rot1, v, ux, uy, uz)
     for k in range(3):
         i = triangles[t, k]
         if corners[k, 0] == x[i, 0] and corners[k, 1] == x[i, 1] and corners[k, 2] == x[i, 2]:
