@@ -34,6 +34,7 @@ from .cloth.kernels import spring_stretches
 from .cloth.model import SHEAR, STRUCTURAL
 from .collision.crossing import (
     AXIS_BLOCK,
+    axis_block_count,
     block_boxes,
     segment_crosses_triangle,
     segment_misses_block,
@@ -67,7 +68,7 @@ def segments_through_triangles(starts, ends, x, triangles, crossed):
     vertex crosses; one parallel to a triangle's plane (in it or not) does not cross that triangle.
     """
     n_triangles = triangles.shape[0]
-    boxes = np.empty(((n_triangles + AXIS_BLOCK - 1) // AXIS_BLOCK, 6))
+    boxes = np.empty((axis_block_count(n_triangles), 6))
     block_boxes(x, triangles, boxes)  # most runs of triangles are nowhere near a bone (``crossing.handle_axes``)
     count = 0
     for k in range(starts.shape[0]):

@@ -55,9 +55,10 @@ AXIS_BLOCK = 32
 _BOX_SLACK = 1e-9  # m, the segment box's slack in ``segment_misses_triangle_box``
 
 
-def axis_block_count(triangles: int) -> int:
+@kernel
+def axis_block_count(triangles):
     """How many boxes ``handle_axes`` needs for ``triangles`` triangles (the rows of its ``boxes``)."""
-    return -(-triangles // AXIS_BLOCK)
+    return (triangles + AXIS_BLOCK - 1) // AXIS_BLOCK
 
 
 @kernel
@@ -91,7 +92,9 @@ def segment_crosses_triangle(px, py, pz, dx, dy, dz, x, a, b, c):
 @kernel
 def segment_misses_triangle_box(x, a, b, c, px, py, pz, qx, qy, qz):
     """True when the bounding boxes of segment p -> q and triangle (a, b, c) of ``x`` are apart (1 nm slack):
-    then the segment cannot cross the triangle. Most triangles are nowhere near a bone."""
+    then the segment cannot cross the triangle. Most triangles are nowhere near a bone. (``segment_misses_block``
+    tests a stored box the same way; here each bound is taken only when the ones before did not decide: one
+    helper taking all six made ``handle_axes`` 5-9 % slower at 20 000 points.)"""
     return (max(x[a, 0], x[b, 0], x[c, 0]) < min(px, qx) - _BOX_SLACK
             or min(x[a, 0], x[b, 0], x[c, 0]) > max(px, qx) + _BOX_SLACK
             or max(x[a, 1], x[b, 1], x[c, 1]) < min(py, qy) - _BOX_SLACK
