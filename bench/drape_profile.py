@@ -17,11 +17,10 @@ from __future__ import annotations
 import json
 import sys
 import time
-from collections import defaultdict
 
 import numpy as np
 
-from garment_sim_ros.benchmarking import load_average, set_threads
+from garment_sim_ros.benchmarking import call_timers, load_average, set_threads
 from garment_sim_ros.cloth import kernels as cloth_kernels
 from garment_sim_ros.collision import crossing
 from garment_sim_ros.collision import kernels as collision_kernels
@@ -32,17 +31,6 @@ TIMED = {cloth_kernels: ("accumulate_forces", "integrate", "set_attached", "leng
          collision_kernels: ("handle_all", "handle_all_parallel", "handle_contacts", "handle_contacts_parallel",
                              "handle_edges", "penetration_depths", "substep_poses"),
          crossing: ("handle_axes",)}
-
-
-def _timed(name, kernel, seconds, calls, label):
-    def call(*args):
-        tic = time.process_time()
-        out = kernel(*args)
-        key = label(name, args)
-        seconds[key] += time.process_time() - tic
-        calls[key] += 1
-        return out
-    return call
 
 
 def profile(frames: int, changes: dict) -> dict:
@@ -68,21 +56,18 @@ def profile(frames: int, changes: dict) -> dict:
             return "strain_limit." + name
         return name
 
-    seconds, calls = defaultdict(float), defaultdict(int)
-    originals = {(module, name): getattr(module, name) for module, names in TIMED.items() for name in names}
+    targets = [(module, name) for module, names in TIMED.items() for name in names]
     cpu = []
-    try:
-        for frame in range(drape.WARMUP_FRAMES + frames):
-            if frame == drape.WARMUP_FRAMES:
-                for (module, name), kernel in originals.items():
-                    setattr(module, name, _timed(name, kernel, seconds, calls, label))
+    for frame in range(drape.WARMUP_FRAMES):
+        scene.advance()
+    # CPU time of the whole process: the parallel collision kernels run on numba's worker threads
+    with call_timers(targets, clock=time.process_time, key=label) as totals:
+        for frame in range(frames):
             tic = time.process_time()
             scene.advance()
-            if frame >= drape.WARMUP_FRAMES:
-                cpu.append(time.process_time() - tic)
-    finally:
-        for (module, name), kernel in originals.items():
-            setattr(module, name, kernel)
+            cpu.append(time.process_time() - tic)
+    seconds = {key: entry[1] for key, entry in totals.items()}
+    calls = {key: entry[2] for key, entry in totals.items()}
     in_kernels = sum(seconds.values())
     substeps = frames * drape.SUBSTEPS
     per_frame = {key: round(1e3 * value / frames, 3) for key, value in sorted(seconds.items(), key=lambda kv: -kv[1])}

@@ -20,7 +20,6 @@ import argparse
 import json
 import statistics
 import time
-from collections import defaultdict
 
 from garment_sim_ros import benchmarking, quality
 from garment_sim_ros.body.sources import procedural_source
@@ -36,20 +35,6 @@ from garment_sim_ros.runtime.tf_input import seconds_to_stamp
 STAGES = ("step", "measure", "payload", "markers", "cdr")
 
 
-def timed(owner, name: str, into: dict) -> None:
-    """Wrap ``owner.name`` so that each call adds its (wall s, CPU s) to ``into[name]``."""
-    function = getattr(owner, name)
-
-    def wrapper(*args, **kwargs):
-        wall, cpu = time.perf_counter(), time.thread_time()
-        result = function(*args, **kwargs)
-        into[name][0] += time.perf_counter() - wall
-        into[name][1] += time.thread_time() - cpu
-        return result
-
-    setattr(owner, name, wrapper)
-
-
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--points", type=int, default=20_000, help="target mass points (garment-sim scale's)")
@@ -63,31 +48,29 @@ def main() -> int:
                                resolution_for(args.points), motion=source.fit_poses())
     character.dress(source.pose(0.0), 0.0, source.motion(0.0))
     meter = character._meters[0]
-    meters: dict = defaultdict(lambda: [0.0, 0.0])
-    for owner, name in ((quality, "free_point_depth"), (quality, "surface_depth"), (meter, "bones_through"),
-                        (meter.tubes, "rings_off"), (meter, "stretch_figures")):
-        timed(owner, name, meters)
     samples = {stage: ([], []) for stage in STAGES}
-    for frame in range(1, args.warmup + args.frames + 1):
-        t = frame * FRAME_S
-        pose, motion = source.pose(t), source.motion(t)
-        if frame == args.warmup + 1:
-            meters.clear()
-        clocks = [(time.perf_counter(), time.thread_time())]
-        reports = character.step(pose, motion, t, measure=False)
-        clocks.append((time.perf_counter(), time.thread_time()))
-        character.measure(reports, pose)
-        clocks.append((time.perf_counter(), time.thread_time()))
-        payload = frame_payload(character, pose)
-        clocks.append((time.perf_counter(), time.thread_time()))
-        markers = frame_markers(payload, "garment", "world", seconds_to_stamp(t), with_volumes=True)
-        clocks.append((time.perf_counter(), time.thread_time()))
-        serialize_marker_array(markers)
-        clocks.append((time.perf_counter(), time.thread_time()))
-        if frame > args.warmup:
-            for k, stage in enumerate(STAGES):
-                samples[stage][0].append(clocks[k + 1][0] - clocks[k][0])
-                samples[stage][1].append(clocks[k + 1][1] - clocks[k][1])
+    with benchmarking.call_timers(((quality, "free_point_depth"), (quality, "surface_depth"), (meter, "bones_through"),
+                                   (meter.tubes, "rings_off"), (meter, "stretch_figures"))) as meters:
+        for frame in range(1, args.warmup + args.frames + 1):
+            t = frame * FRAME_S
+            pose, motion = source.pose(t), source.motion(t)
+            if frame == args.warmup + 1:
+                meters.clear()
+            clocks = [(time.perf_counter(), time.thread_time())]
+            reports = character.step(pose, motion, t, measure=False)
+            clocks.append((time.perf_counter(), time.thread_time()))
+            character.measure(reports, pose)
+            clocks.append((time.perf_counter(), time.thread_time()))
+            payload = frame_payload(character, pose)
+            clocks.append((time.perf_counter(), time.thread_time()))
+            markers = frame_markers(payload, "garment", "world", seconds_to_stamp(t), with_volumes=True)
+            clocks.append((time.perf_counter(), time.thread_time()))
+            serialize_marker_array(markers)
+            clocks.append((time.perf_counter(), time.thread_time()))
+            if frame > args.warmup:
+                for k, stage in enumerate(STAGES):
+                    samples[stage][0].append(clocks[k + 1][0] - clocks[k][0])
+                    samples[stage][1].append(clocks[k + 1][1] - clocks[k][1])
     wall = {stage: round(statistics.median(w) * 1e3, 3) for stage, (w, _) in samples.items()}
     cpu = {stage: round(statistics.median(c) * 1e3, 3) for stage, (_, c) in samples.items()}
     total = sum(cpu.values())
@@ -95,7 +78,7 @@ def main() -> int:
         "bench": "frame_stages", "mass_points": character.solvers[0].model.num_points, "frames": args.frames,
         "threads": threads, "wall_ms": wall, "cpu_ms": cpu, "cpu_total_ms": round(total, 3),
         "cpu_share": {stage: round(value / total, 3) for stage, value in cpu.items()},
-        "meters_cpu_ms": {name: round(c / args.frames * 1e3, 3) for name, (_, c) in meters.items()},
+        "meters_cpu_ms": {name: round(c / args.frames * 1e3, 3) for name, (_, c, _) in meters.items()},
         "load_1min": benchmarking.load_average()}), flush=True)
     return 0
 

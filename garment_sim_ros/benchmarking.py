@@ -24,6 +24,8 @@ import statistics
 import sys
 import tempfile
 import time
+from collections import defaultdict
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -55,6 +57,35 @@ def load_average() -> float:
 
 def progress(message: str) -> None:
     print(message, file=sys.stderr, flush=True)
+
+
+@contextmanager
+def call_timers(targets, clock=time.thread_time, key=lambda name, args: name):
+    """Time every call of ``targets`` ((owner, attribute) pairs: module kernels, methods) while inside; yields
+    ``totals``: ``key(attribute, args)`` -> [wall s, CPU s by ``clock``, calls]. The attributes are put back on
+    exit. ``clock``: ``time.thread_time`` for the calling thread, ``time.process_time`` to count numba's
+    worker threads too (a parallel kernel)."""
+    totals: defaultdict = defaultdict(lambda: [0.0, 0.0, 0])
+    originals = [(owner, name, getattr(owner, name)) for owner, name in targets]
+
+    def timed(name, function):
+        def call(*args, **kwargs):
+            wall, cpu = time.perf_counter(), clock()
+            result = function(*args, **kwargs)
+            entry = totals[key(name, args)]
+            entry[0] += time.perf_counter() - wall
+            entry[1] += clock() - cpu
+            entry[2] += 1
+            return result
+        return call
+
+    for owner, name, function in originals:
+        setattr(owner, name, timed(name, function))
+    try:
+        yield totals
+    finally:
+        for owner, name, function in originals:
+            setattr(owner, name, function)
 
 
 def _median_ms(samples: list[float]) -> float:

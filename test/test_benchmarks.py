@@ -173,3 +173,21 @@ def test_drape_at_n_64_meets_the_issue_targets_and_comes_to_rest_without_flutter
     assert float(np.max(x[:, 2])) == pytest.approx(drape.SPHERE_RADIUS_M, abs=0.01)
     assert float(np.mean(np.linalg.norm(v, axis=1))) < 0.5  # swinging out after the motion, not fluttering
     assert float(np.max(x[[0, n - 1, n * (n - 1), n * n - 1], 2])) < -0.2  # the corners hang
+
+
+def test_call_timers_count_each_call_under_its_key_and_put_the_attribute_back():
+    """The bench scripts' profiles (``bench/frame_stages.py``, ``bench/drape_profile.py``) time calls with it."""
+    import types
+
+    from garment_sim_ros.benchmarking import call_timers
+
+    def work(n):
+        return sum(range(n))
+
+    owner = types.SimpleNamespace(work=work)
+    with call_timers([(owner, "work")], key=lambda name, args: f"{name}:{args[0]}") as totals:
+        assert owner.work(10) == 45 and owner.work(10) == 45 and owner.work(3) == 3
+        assert owner.work is not work
+    assert owner.work is work
+    assert {key: entry[2] for key, entry in totals.items()} == {"work:10": 2, "work:3": 1}
+    assert all(entry[0] >= 0.0 and entry[1] >= 0.0 for entry in totals.values())
