@@ -285,8 +285,8 @@ def pants(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> Ga
     seam = max(1, round(4 * resolution))
     # The leg's first rings below the crotch have as many vertices as its top ring (half the hip ring and the
     # seam: 21); the rest step down to 19 (33-38 mm apart, as fine as the hip ring), which keeps the trousers
-    # at the memo's size (Table 1: 548 points; 672 here, 720 with every ring at 21). Stepping down at the first
-    # ring instead let a thigh out of its leg again (the CC jump at 3x, 50 frames).
+    # at the memo's size (Table 1: 548 points; 672 here, 720 with every ring at 21). Stepping down at ring 1 or
+    # ring 4 instead let a thigh out of its leg again (the CC jump at 3x: 50 and 12 legs-off frames).
     top_around = half + 1 + seam
     leg_around = half + 1 + max(1, round(2 * resolution))
     n_top_rings = max(1, round(2 * resolution))  # leg rings below the top ring with ``top_around`` vertices
