@@ -164,3 +164,15 @@ def test_the_trousers_waistband_follows_the_trunk_through_the_cartwheels_bend():
     row = evaluate_run(Run(str(DATA / "cc_cmu_05_06_dance_cartwheel_pirouette.bvh"), "pants", 3.0, 30.0))
     assert row["frames"] == 73
     assert (row["bones_frames"], row["legs_off_frames"], row["guard_firings"]) == (0, 0, 0)
+
+
+def test_a_thigh_does_not_go_through_the_trousers_crotch_into_the_other_leg():
+    """CC jump, trousers, 3x at 60 fps, to just past the landing (issue 11 (c)): the left thigh's bone, 11-30 %
+    down from the hip joint and inside the pelvis volume, reached the crotch band, which the pelvis bulged
+    through between its corners. Every way off the bone put a corner 2-108 mm into the pelvis, so the pinch
+    rule left it crossed (``crossing._destinations``) and the thigh walked through the seam: from frame 33 the
+    left trouser leg's first ring went round no volume. The crotch seam had 2 interior vertices (segments
+    95 mm, the hip ring's 28-38 mm); with 4 (57 mm, ``garments.pants``) no leg is off."""
+    row = evaluate_run(Run(str(DATA / "cc_cmu_02_04_jump_balance.bvh"), "pants", 3.0, 60.0, 0.7))
+    assert row["frames"] == 42
+    assert row["legs_off_frames"] == 0, row["legs_off_frames"]
