@@ -89,8 +89,8 @@ def test_a_forearm_at_the_hip_does_not_stay_caught_under_the_waistband():
 
 def test_a_hand_on_the_hip_does_not_spear_the_trousers():
     """Issue 11 (b), cmu_131 (a walk with the left hand on the hip from 1.83 s), trousers, 1x at 60 fps: the
-    forearm is pressed 32-45 mm into the pelvis' and the left thigh's volumes and its wrist spears the row under
-    the waistband. Every way off the bone put the corner beyond the wrist 1-8 mm into the thigh, past
+    forearm is pressed up to 45 mm into the pelvis' and 43 mm into the left thigh's volumes and its wrist spears
+    the row under the waistband. Every way off the bone put the corner beyond the wrist up to 8 mm into the thigh, past
     ``pinch_depth`` (1 mm): contact won, the crossing passed to the band's row and stayed there while the hand
     did (28 frames, 1.83-2.28 s). Into a volume pressed against the bone's the corner may go
     ``pressed_pinch_depth`` (10 mm) deep, and ``crossing.out_of_pinches`` takes it out again: no frame with a bone
