@@ -40,6 +40,7 @@ from . import kernels
 from .motion_constraints import limit_distance
 
 _NO_POINTS = np.zeros((0, 3))
+_NO_INCIDENCE = (np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64))  # the serial chain gathers no forces
 INTEGRATION, CORRECTION, COLLISION, CALL = range(4)  # ``run_substeps``' tick counters
 # the collision drivers the serial chain below calls; the parallel chain (``_parallel_chain``) their twins
 _handle_all, _handle_contacts = collision_kernels.handle_all, collision_kernels.handle_contacts
@@ -87,9 +88,17 @@ def advance_substeps(solver, frame, count: int, h: float, v0, a0, yaw_rate: floa
         fractions[k] = f0, f1
     constrained = skinned is not None
     skinned0, skinned1 = skinned if constrained else (_NO_POINTS, _NO_POINTS)
+    layout = solver.parallel_layout()
+    if layout is None:  # the serial chain: the model's order (one group of all the springs, of all the edges)
+        correction = (model.springs, model.rest_lengths, np.array([0, solver._correct_count], dtype=np.int64))
+        spread = (_NO_INCIDENCE, _NO_POINTS, solver._edges, solver._edge_rest,
+                  np.array([0, len(solver._edges)], dtype=np.int64))
+    else:
+        correction = (layout.correction_springs, layout.correction_rest, layout.correction_starts)
+        spread = (layout.incidence, layout.spring_forces, layout.edges, layout.edge_rest, layout.edge_starts)
     garment = (const.mass, const.inv_mass, model.springs, model.rest_lengths, const.stiffness, const.damping,
-               model.attached, model.tether_anchors, model.tether_lengths, solver._edges, solver._edge_rest,
-               solver._triangles)
+               model.attached, model.tether_anchors, model.tether_lengths, spread[2], spread[3],
+               solver._triangles, correction, spread[0], spread[1], spread[4])
     scratch = (solver._forces, solver._x_start, solver._x_collision, solver._x_kept, solver._v_kept,
                solver._v_scratch, solver._strain_inv_mass, solver._strain_stretches, collider._depths,
                collider._scratch, collider._corners, collider.axis_boxes(solver._triangles))
@@ -97,7 +106,8 @@ def advance_substeps(solver, frame, count: int, h: float, v0, a0, yaw_rate: floa
                 int(params.correction_iterations), int(solver._correct_count), float(params.limit_ratio),
                 bool(params.tethers), 1.0 + float(params.tether_slack), constrained, float(params.max_distance),
                 int(params.strain_limit_iterations), float(params.contact_mobility),
-                1.0 + params.limit_ratio + params.strain_limit_tolerance, float(solver.STRAIN_LIMIT_UNDONE))
+                1.0 + params.limit_ratio + params.strain_limit_tolerance, float(solver.STRAIN_LIMIT_UNDONE),
+                int(solver.COLOURED_SWEEPS))
     contact = (collider._eps, collider._friction, collider._c_time, collider._switch_ratio, collider._mode,
                collider._pinch_depth, collider._edge_pinch_depth, collider._grip, collider._margin)
     pressing = collider.pressing
@@ -121,6 +131,32 @@ def advance_substeps(solver, frame, count: int, h: float, v0, a0, yaw_rate: floa
 
 
 @njit(cache=True)
+def _accumulate_in_order(x, v, mass, springs, rest, stiffness, damping, uniform, omega, yaw_acc, air_damping,
+                         frame_velocity, rotation_scale, forces, incidence, spring_forces):
+    """The serial chain's forces: ``kernels.accumulate_forces`` (the springs scattered in the model's order); the
+    parallel chain's is ``kernels.accumulate_forces_gathered``, with the same arguments."""
+    kernels.accumulate_forces(x, v, mass, springs, rest, stiffness, damping, uniform, omega, yaw_acc, air_damping,
+                              frame_velocity, rotation_scale, forces)
+
+
+@njit(cache=True)
+def _correct_in_order(x, inv_mass, springs, rest, starts, limit_ratio, sweeps):
+    """The serial chain's correction iteration: ``kernels.length_correction`` over the first ``starts[-1]`` springs
+    in the model's order (one sweep); the parallel chain's is ``kernels.coloured_length_correction``."""
+    return kernels.length_correction(x, inv_mass, springs, rest, starts[-1], limit_ratio)
+
+
+@njit(cache=True)
+def _edges_in_order(arrays, xs, x, inv_mass, edges, edge_rest, starts, edge_pinch_depth):
+    """The serial chain's edge handling: ``handle_edges`` in the edges' order; the parallel chain's is
+    ``handle_edges_coloured``."""
+    return collision_kernels.handle_edges(arrays, xs, x, inv_mass, edges, edge_rest, edge_pinch_depth)
+
+
+_accumulate, _correct, _handle_edges = _accumulate_in_order, _correct_in_order, _edges_in_order
+
+
+@njit(cache=True)
 def run_substeps(x, v, contacts, garment, scratch, uniform, frame_velocity, omega, fractions, targets0, targets1,
                  skinned0, skinned1, arrays, frame_pos, frame_quat, pressing, press, settings, contact, ticks):
     """All substeps of a frame, as ``GarmentSolver.advance``'s loop (with a collider) runs them; ``x``, ``v``
@@ -133,18 +169,19 @@ def run_substeps(x, v, contacts, garment, scratch, uniform, frame_velocity, omeg
     call is the integration's."""
     start = _cycles()
     (mass, inv_mass, springs, rest, stiffness, damping, attached, tether_anchors, tether_lengths, edges, edge_rest,
-     triangles) = garment
+     triangles, correction, incidence, spring_forces, edge_starts) = garment
     forces, x_start = scratch[0], scratch[1]
     (h, yaw_acc, air_damping, rotation_scale, iterations, correct_count, limit_ratio, tethers, tether_scale,
      constrained, max_distance, strain_iterations) = settings[:12]
+    sweeps = settings[15]
     eps, friction, switch_ratio, mode, grip = contact[0], contact[1], contact[3], contact[4], contact[7]
     n_static = 0
     n_dynamic = 0
     pressed = 0.0
     for k in range(uniform.shape[0]):
         f0, f1 = fractions[k, 0], fractions[k, 1]
-        kernels.accumulate_forces(x, v, mass, springs, rest, stiffness, damping, uniform[k], omega[k], yaw_acc,
-                                  air_damping, frame_velocity[k], rotation_scale, forces)
+        _accumulate(x, v, mass, springs, rest, stiffness, damping, uniform[k], omega[k], yaw_acc, air_damping,
+                    frame_velocity[k], rotation_scale, forces, incidence, spring_forces)
         if not math.isfinite(_sum(forces)):
             x[:] = math.nan  # the guard restores; collision handling would turn NaN into garbage
             break
@@ -158,7 +195,7 @@ def run_substeps(x, v, contacts, garment, scratch, uniform, frame_velocity, omeg
         ticks[COLLISION] += tac - tic
         for iteration in range(max(1, iterations)):
             if iteration < iterations:
-                kernels.length_correction(x, inv_mass, springs, rest, correct_count, limit_ratio)
+                _correct(x, inv_mass, correction[0], correction[1], correction[2], limit_ratio, sweeps)
                 if tethers:
                     kernels.tether_constraints(x, inv_mass, tether_anchors, tether_lengths, tether_scale)
             if iteration == 0:
@@ -173,13 +210,14 @@ def run_substeps(x, v, contacts, garment, scratch, uniform, frame_velocity, omeg
         kernels.velocities_from_positions(x, x_start, h, v)
         tic = _cycles()
         scratch[2][:] = x
-        s, d = _resolve(arrays, x_start, x, v, inv_mass, h, contacts, edges, edge_rest, triangles, scratch, contact)
+        s, d = _resolve(arrays, x_start, x, v, inv_mass, h, contacts, edges, edge_rest, edge_starts, triangles, scratch,
+                        contact)
         n_static += s
         n_dynamic += d
         ticks[COLLISION] += _cycles() - tic
         if strain_iterations > 0:
-            s, d = _limit_strain(arrays, x_start, x, v, inv_mass, h, contacts, springs, rest, edges, edge_rest,
-                                 triangles, scratch, settings, contact, skinned0, skinned1, f1, ticks)
+            s, d = _limit_strain(arrays, x_start, x, v, inv_mass, h, contacts, correction, edges, edge_rest,
+                                 edge_starts, triangles, scratch, settings, contact, skinned0, skinned1, f1, ticks)
             n_static += s
             n_dynamic += d
     ticks[CALL] += _cycles() - start
@@ -203,17 +241,17 @@ def _points(arrays, xs, x, v, inv_mass, h, contacts, scratch, contact):
 
 
 @njit(cache=True)
-def _resolve(arrays, xs, x, v, inv_mass, h, contacts, edges, edge_rest, triangles, scratch, contact):
+def _resolve(arrays, xs, x, v, inv_mass, h, contacts, edges, edge_rest, edge_starts, triangles, scratch, contact):
     """``Collider.resolve_substep`` (same calls, same retry); (static hits, dynamic hits)."""
     eps, friction, switch_ratio, mode, pinch_depth, edge_pinch_depth, grip = (
         contact[0], contact[1], contact[3], contact[4], contact[5], contact[6], contact[7])
     n_static, n_dynamic = _points(arrays, xs, x, v, inv_mass, h, contacts, scratch, contact)
     crossed = crossing.handle_axes(arrays, xs, x, v, inv_mass, h, triangles, eps, pinch_depth, AXIS_PASSES,
                                    scratch[10], scratch[11])
-    if collision_kernels.handle_edges(arrays, xs, x, inv_mass, edges, edge_rest, edge_pinch_depth) or crossed:
+    if _handle_edges(arrays, xs, x, inv_mass, edges, edge_rest, edge_starts, edge_pinch_depth) or crossed:
         n_static += _handle_contacts(arrays, xs, x, v, inv_mass, h, eps, friction, grip, switch_ratio, mode,
                                      contacts)
-        collision_kernels.handle_edges(arrays, xs, x, inv_mass, edges, edge_rest, edge_pinch_depth)
+        _handle_edges(arrays, xs, x, inv_mass, edges, edge_rest, edge_starts, edge_pinch_depth)
         s, d = _points(arrays, xs, x, v, inv_mass, h, contacts, scratch, contact)
         n_static += s
         n_dynamic += d
@@ -223,13 +261,14 @@ def _resolve(arrays, xs, x, v, inv_mass, h, contacts, edges, edge_rest, triangle
 
 
 @njit(cache=True)
-def _limit_strain(arrays, xs, x, v, inv_mass, h, contacts, springs, rest, edges, edge_rest, triangles, scratch,
-                  settings, contact, skinned0, skinned1, f1, ticks):
+def _limit_strain(arrays, xs, x, v, inv_mass, h, contacts, correction, edges, edge_rest, edge_starts, triangles,
+                  scratch, settings, contact, skinned0, skinned1, f1, ticks):
     """``GarmentSolver._limit_strain`` (same calls, same order, its stage split); (static hits, dynamic hits)."""
     tic = _cycles()
     x_collision, x_kept, v_kept, v_scratch, strain_inv_mass, stretches, depths = scratch[2:9]
-    correct_count, limit_ratio, constrained, max_distance, strain_iterations = (settings[5], settings[6], settings[9],
-                                                                                settings[10], settings[11])
+    limit_ratio, constrained, max_distance, strain_iterations, sweeps = (settings[6], settings[9], settings[10],
+                                                                         settings[11], settings[15])
+    springs, rest = correction[0], correction[1]
     mobility, converged, undone = settings[12], settings[13], settings[14]
     eps, friction, switch_ratio, mode, grip = contact[0], contact[1], contact[3], contact[4], contact[7]
     kernels.contact_weights(x, x_collision, inv_mass, mobility, strain_inv_mass)
@@ -239,7 +278,7 @@ def _limit_strain(arrays, xs, x, v, inv_mass, h, contacts, springs, rest, edges,
     tac = _cycles()
     n_static = 0
     for _ in range(strain_iterations):
-        if kernels.length_correction(x, strain_inv_mass, springs, rest, correct_count, limit_ratio) <= converged:
+        if _correct(x, strain_inv_mass, springs, rest, correction[2], limit_ratio, sweeps) <= converged:
             break
         n_static += _handle_contacts(arrays, xs, x, v_scratch, inv_mass, h, eps, friction, grip, switch_ratio,
                                       mode, contacts)
@@ -249,7 +288,8 @@ def _limit_strain(arrays, xs, x, v, inv_mass, h, contacts, springs, rest, edges,
         for c in range(3):
             v[i, c] += (x[i, c] - x_kept[i, c]) / h
     toc = _cycles()
-    s, n_dynamic = _resolve(arrays, xs, x, v, inv_mass, h, contacts, edges, edge_rest, triangles, scratch, contact)
+    s, n_dynamic = _resolve(arrays, xs, x, v, inv_mass, h, contacts, edges, edge_rest, edge_starts, triangles,
+                            scratch, contact)
     collision_kernels.penetration_depths(arrays, x, depths)
     kernels.keep_where_inside(x, v, x_kept, v_kept, depths)
     if kernels.spring_stretches(x, springs, rest, stretches) > max(worst_kept, undone):
@@ -267,6 +307,9 @@ def _parallel_chain():
     namespace = dict(globals())
     namespace["_handle_all"] = collision_kernels.handle_all_parallel
     namespace["_handle_contacts"] = collision_kernels.handle_contacts_parallel
+    namespace["_accumulate"] = kernels.accumulate_forces_gathered
+    namespace["_correct"] = kernels.coloured_length_correction
+    namespace["_handle_edges"] = collision_kernels.handle_edges_coloured
     for name in ("_points", "_resolve", "_limit_strain", "run_substeps"):
         namespace[name] = parallel_twin(globals()[name].py_func, namespace)
     return namespace["run_substeps"]

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from .. import quat_kernels as quat
 
@@ -26,40 +26,77 @@ def accumulate_forces(x, v, mass, springs, rest, stiffness, damping, uniform_acc
       + springs with damping along the spring.
     ``frame_velocity`` is the root's scaled velocity minus the wind, both in the root frame.
     """
-    n = x.shape[0]
-    for i in range(n):
-        m = mass[i]
-        rx, ry = x[i, 0], x[i, 1]  # the rotation is about z: r_z plays no part
-        vx, vy, vz = v[i, 0], v[i, 1], v[i, 2]
-        # omega = (0, 0, w): omega x r = (-w ry, w rx, 0); omega x (omega x r) = (-w^2 rx, -w^2 ry, 0)
-        w = omega_z
-        fict_x = alpha_z * -ry - w * w * rx + 2.0 * (-w * vy)
-        fict_y = alpha_z * rx - w * w * ry + 2.0 * (w * vx)
-        spin_x = -w * ry
-        spin_y = w * rx
-        forces[i, 0] = m * (uniform_accel[0] - rotation_scale * fict_x
-                            - drag_rate * (vx + frame_velocity[0] + rotation_scale * spin_x))
-        forces[i, 1] = m * (uniform_accel[1] - rotation_scale * fict_y
-                            - drag_rate * (vy + frame_velocity[1] + rotation_scale * spin_y))
-        forces[i, 2] = m * (uniform_accel[2] - drag_rate * (vz + frame_velocity[2]))
+    for i in range(x.shape[0]):
+        forces[i, 0], forces[i, 1], forces[i, 2] = _frame_force(x, v, mass, i, uniform_accel, omega_z, alpha_z,
+                                                                drag_rate, frame_velocity, rotation_scale)
     for s in range(springs.shape[0]):
         a = springs[s, 0]
         b = springs[s, 1]
-        dx = x[b, 0] - x[a, 0]
-        dy = x[b, 1] - x[a, 1]
-        dz = x[b, 2] - x[a, 2]
-        length = np.sqrt(dx * dx + dy * dy + dz * dz)
-        if length < 1e-12:
-            continue
-        ux, uy, uz = dx / length, dy / length, dz / length
-        closing = (v[b, 0] - v[a, 0]) * ux + (v[b, 1] - v[a, 1]) * uy + (v[b, 2] - v[a, 2]) * uz
-        magnitude = stiffness[s] * (length - rest[s]) + damping[s] * closing
-        forces[a, 0] += magnitude * ux
-        forces[a, 1] += magnitude * uy
-        forces[a, 2] += magnitude * uz
-        forces[b, 0] -= magnitude * ux
-        forces[b, 1] -= magnitude * uy
-        forces[b, 2] -= magnitude * uz
+        fx, fy, fz = _spring_force(x, v, a, b, rest[s], stiffness[s], damping[s])
+        forces[a, 0] += fx
+        forces[a, 1] += fy
+        forces[a, 2] += fz
+        forces[b, 0] -= fx
+        forces[b, 1] -= fy
+        forces[b, 2] -= fz
+
+
+@njit(cache=True, parallel=True)
+def accumulate_forces_gathered(x, v, mass, springs, rest, stiffness, damping, uniform_accel, omega_z, alpha_z,
+                               drag_rate, frame_velocity, rotation_scale, forces, incidence, spring_forces):
+    """``accumulate_forces`` over numba's threads: each spring's force into ``spring_forces`` (S, 3), then each
+    point gathers its springs' (``incidence``: ``spring_incidence``'s CSR) instead of the springs scattering
+    into the points, so no two threads write one point. The same forces up to the order of the sum per point;
+    the same on any number of threads."""
+    starts, ends = incidence
+    for s in prange(springs.shape[0]):
+        spring_forces[s, 0], spring_forces[s, 1], spring_forces[s, 2] = _spring_force(
+            x, v, springs[s, 0], springs[s, 1], rest[s], stiffness[s], damping[s])
+    for i in prange(x.shape[0]):
+        fx, fy, fz = _frame_force(x, v, mass, i, uniform_accel, omega_z, alpha_z, drag_rate, frame_velocity,
+                                  rotation_scale)
+        for k in range(starts[i], starts[i + 1]):
+            e = ends[k]
+            if e >= 0:  # point i is the spring's first end: pulled towards the second
+                fx, fy, fz = fx + spring_forces[e, 0], fy + spring_forces[e, 1], fz + spring_forces[e, 2]
+            else:
+                e = ~e
+                fx, fy, fz = fx - spring_forces[e, 0], fy - spring_forces[e, 1], fz - spring_forces[e, 2]
+        forces[i, 0], forces[i, 1], forces[i, 2] = fx, fy, fz
+
+
+@njit(cache=True, inline="always")
+def _frame_force(x, v, mass, i, uniform_accel, omega_z, alpha_z, drag_rate, frame_velocity, rotation_scale):
+    """Point i's force from the moving frame and the air (``accumulate_forces``' first three terms)."""
+    m = mass[i]
+    rx, ry = x[i, 0], x[i, 1]  # the rotation is about z: r_z plays no part
+    vx, vy, vz = v[i, 0], v[i, 1], v[i, 2]
+    # omega = (0, 0, w): omega x r = (-w ry, w rx, 0); omega x (omega x r) = (-w^2 rx, -w^2 ry, 0)
+    w = omega_z
+    fict_x = alpha_z * -ry - w * w * rx + 2.0 * (-w * vy)
+    fict_y = alpha_z * rx - w * w * ry + 2.0 * (w * vx)
+    spin_x = -w * ry
+    spin_y = w * rx
+    return (m * (uniform_accel[0] - rotation_scale * fict_x
+                 - drag_rate * (vx + frame_velocity[0] + rotation_scale * spin_x)),
+            m * (uniform_accel[1] - rotation_scale * fict_y
+                 - drag_rate * (vy + frame_velocity[1] + rotation_scale * spin_y)),
+            m * (uniform_accel[2] - drag_rate * (vz + frame_velocity[2])))
+
+
+@njit(cache=True, inline="always")
+def _spring_force(x, v, a, b, rest, stiffness, damping):
+    """The force on point a of the spring from a to b, with damping along it (b gets its opposite)."""
+    dx = x[b, 0] - x[a, 0]
+    dy = x[b, 1] - x[a, 1]
+    dz = x[b, 2] - x[a, 2]
+    length = np.sqrt(dx * dx + dy * dy + dz * dz)
+    if length < 1e-12:
+        return 0.0, 0.0, 0.0
+    ux, uy, uz = dx / length, dy / length, dz / length
+    closing = (v[b, 0] - v[a, 0]) * ux + (v[b, 1] - v[a, 1]) * uy + (v[b, 2] - v[a, 2]) * uz
+    magnitude = stiffness * (length - rest) + damping * closing
+    return magnitude * ux, magnitude * uy, magnitude * uz
 
 
 @njit(cache=True)
@@ -84,26 +121,47 @@ def length_correction(x, inv_mass, springs, rest, count, limit_ratio):
     Returns the largest length / rest length it met, before shortening (0 for no springs)."""
     worst = 0.0
     for s in range(count):
-        a = springs[s, 0]
-        b = springs[s, 1]
-        dx, dy, dz, length = _spring_vector(x, a, b)
-        limit = (1.0 + limit_ratio) * rest[s]
-        worst = max(worst, length / rest[s])
-        if length <= limit:
-            continue
-        wa = inv_mass[a]
-        wb = inv_mass[b]
-        total = wa + wb
-        if total == 0.0:
-            continue
-        scale = (length - limit) / (length * total)
-        x[a, 0] += wa * scale * dx
-        x[a, 1] += wa * scale * dy
-        x[a, 2] += wa * scale * dz
-        x[b, 0] -= wb * scale * dx
-        x[b, 1] -= wb * scale * dy
-        x[b, 2] -= wb * scale * dz
+        worst = max(worst, _correct_spring(x, inv_mass, springs[s, 0], springs[s, 1], rest[s], limit_ratio))
     return worst
+
+
+@njit(cache=True, parallel=True)  # a prange reduction (max) needs numba's runtime
+def coloured_length_correction(x, inv_mass, springs, rest, colour_starts, limit_ratio, sweeps):
+    """``sweeps`` iterations of ``length_correction`` over ``springs`` grouped by colour (``colour_order``: no two
+    springs of a colour share a point), each colour's springs over numba's threads. The same result on any number
+    of threads. Returns the largest length / rest length the first sweep met (0 for no springs)."""
+    worst = 0.0
+    for sweep in range(sweeps):
+        for c in range(colour_starts.shape[0] - 1):
+            met = 0.0
+            for s in prange(colour_starts[c], colour_starts[c + 1]):
+                met = max(met, _correct_spring(x, inv_mass, springs[s, 0], springs[s, 1], rest[s], limit_ratio))
+            if sweep == 0:
+                worst = max(worst, met)
+    return worst
+
+
+@njit(cache=True, inline="always")
+def _correct_spring(x, inv_mass, a, b, rest, limit_ratio):
+    """Shorten the spring from a to b to ``(1 + limit_ratio) * rest`` if it is longer (``length_correction``);
+    returns its length / rest length before."""
+    dx, dy, dz, length = _spring_vector(x, a, b)
+    limit = (1.0 + limit_ratio) * rest
+    if length <= limit:
+        return length / rest
+    wa = inv_mass[a]
+    wb = inv_mass[b]
+    total = wa + wb
+    if total == 0.0:
+        return length / rest
+    scale = (length - limit) / (length * total)
+    x[a, 0] += wa * scale * dx
+    x[a, 1] += wa * scale * dy
+    x[a, 2] += wa * scale * dz
+    x[b, 0] -= wb * scale * dx
+    x[b, 1] -= wb * scale * dy
+    x[b, 2] -= wb * scale * dz
+    return length / rest
 
 
 @njit(cache=True)
