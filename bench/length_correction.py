@@ -30,7 +30,6 @@ import numpy as np
 from numba import njit, prange
 
 from garment_sim_ros.cloth import kernels
-from garment_sim_ros.cloth.colouring import colour_order
 from garment_sim_ros.cloth.garments import build_garment
 from garment_sim_ros.cloth.model import build_cloth_model
 from garment_sim_ros.commands.scale import GARMENT, resolution_for
@@ -38,6 +37,21 @@ from garment_sim_ros.params import DEFAULT_PARAMS
 
 STRETCH, NOISE = 1.15, 1e-3  # the starting state: 15 % longer downwards, 1 mm of noise (m)
 RELAXATION = 1.5  # the Jacobi sweep's over-relaxation of the averaged corrections (1.0-1.8 tried; 1.5 best)
+
+
+def colour_order(springs: np.ndarray, num_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """A permutation of ``springs`` (S, 2) grouping them by colour (greedy, lowest colour free at both ends)
+    and where each colour starts (C + 1,)."""
+    used = [0] * num_points
+    colours = np.empty(len(springs), dtype=np.int64)
+    for s, (a, b) in enumerate(springs.tolist()):
+        taken = used[a] | used[b]
+        colour = (~taken & (taken + 1)).bit_length() - 1
+        colours[s] = colour
+        used[a] |= 1 << colour
+        used[b] |= 1 << colour
+    order = np.argsort(colours, kind="stable")
+    return order, np.concatenate([[0], np.cumsum(np.bincount(colours))]).astype(np.int64)
 
 
 @njit(parallel=True)  # a prange reduction (max) needs numba's runtime

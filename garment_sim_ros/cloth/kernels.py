@@ -29,40 +29,22 @@ def accumulate_forces(x, v, mass, springs, rest, stiffness, damping, uniform_acc
     for i in range(x.shape[0]):
         forces[i, 0], forces[i, 1], forces[i, 2] = _frame_force(x, v, mass, i, uniform_accel, omega_z, alpha_z,
                                                                 drag_rate, frame_velocity, rotation_scale)
-    for s in range(springs.shape[0]):
-        a = springs[s, 0]
-        b = springs[s, 1]
-        fx, fy, fz = _spring_force(x, v, a, b, rest[s], stiffness[s], damping[s])
-        forces[a, 0] += fx
-        forces[a, 1] += fy
-        forces[a, 2] += fz
-        forces[b, 0] -= fx
-        forces[b, 1] -= fy
-        forces[b, 2] -= fz
+    _add_spring_forces(x, v, springs, rest, stiffness, damping, 0, springs.shape[0], forces)
 
 
 @njit(cache=True, parallel=True)
-def accumulate_forces_gathered(x, v, mass, springs, rest, stiffness, damping, uniform_accel, omega_z, alpha_z,
-                               drag_rate, frame_velocity, rotation_scale, forces, incidence, spring_forces):
-    """``accumulate_forces`` over numba's threads: each spring's force into ``spring_forces`` (S, 3), then each
-    point gathers its springs' (``incidence``: ``spring_incidence``'s CSR) instead of the springs scattering
-    into the points, so no two threads write one point. The same forces up to the order of the sum per point;
-    the same on any number of threads."""
-    starts, ends = incidence
-    for s in prange(springs.shape[0]):
-        spring_forces[s, 0], spring_forces[s, 1], spring_forces[s, 2] = _spring_force(
-            x, v, springs[s, 0], springs[s, 1], rest[s], stiffness[s], damping[s])
+def accumulate_forces_halves(x, v, mass, springs, rest, stiffness, damping, uniform_accel, omega_z, alpha_z,
+                             drag_rate, frame_velocity, rotation_scale, forces, starts):
+    """``accumulate_forces`` on two threads: the points' own forces over the threads, then the springs of each
+    half of the garment on its own thread and those across the cut after them (the springs, their rest lengths,
+    stiffnesses and dampings in ``cloth.halves``' order, ``starts`` (4,) its groups'). The same forces up to the
+    order of the sums at the points near the cut; the same on any number of threads."""
     for i in prange(x.shape[0]):
-        fx, fy, fz = _frame_force(x, v, mass, i, uniform_accel, omega_z, alpha_z, drag_rate, frame_velocity,
-                                  rotation_scale)
-        for k in range(starts[i], starts[i + 1]):
-            e = ends[k]
-            if e >= 0:  # point i is the spring's first end: pulled towards the second
-                fx, fy, fz = fx + spring_forces[e, 0], fy + spring_forces[e, 1], fz + spring_forces[e, 2]
-            else:
-                e = ~e
-                fx, fy, fz = fx - spring_forces[e, 0], fy - spring_forces[e, 1], fz - spring_forces[e, 2]
-        forces[i, 0], forces[i, 1], forces[i, 2] = fx, fy, fz
+        forces[i, 0], forces[i, 1], forces[i, 2] = _frame_force(x, v, mass, i, uniform_accel, omega_z, alpha_z,
+                                                                drag_rate, frame_velocity, rotation_scale)
+    for half in prange(2):
+        _add_spring_forces(x, v, springs, rest, stiffness, damping, starts[half], starts[half + 1], forces)
+    _add_spring_forces(x, v, springs, rest, stiffness, damping, starts[2], starts[3], forces)
 
 
 @njit(cache=True, inline="always")
@@ -84,19 +66,28 @@ def _frame_force(x, v, mass, i, uniform_accel, omega_z, alpha_z, drag_rate, fram
             m * (uniform_accel[2] - drag_rate * (vz + frame_velocity[2])))
 
 
-@njit(cache=True, inline="always")
-def _spring_force(x, v, a, b, rest, stiffness, damping):
-    """The force on point a of the spring from a to b, with damping along it (b gets its opposite)."""
-    dx = x[b, 0] - x[a, 0]
-    dy = x[b, 1] - x[a, 1]
-    dz = x[b, 2] - x[a, 2]
-    length = np.sqrt(dx * dx + dy * dy + dz * dz)
-    if length < 1e-12:
-        return 0.0, 0.0, 0.0
-    ux, uy, uz = dx / length, dy / length, dz / length
-    closing = (v[b, 0] - v[a, 0]) * ux + (v[b, 1] - v[a, 1]) * uy + (v[b, 2] - v[a, 2]) * uz
-    magnitude = stiffness * (length - rest) + damping * closing
-    return magnitude * ux, magnitude * uy, magnitude * uz
+@njit(cache=True)
+def _add_spring_forces(x, v, springs, rest, stiffness, damping, start, end, forces):
+    """The forces of the springs ``start:end``, with damping along each, added to their first ends and taken
+    from their second."""
+    for s in range(start, end):
+        a = springs[s, 0]
+        b = springs[s, 1]
+        dx = x[b, 0] - x[a, 0]
+        dy = x[b, 1] - x[a, 1]
+        dz = x[b, 2] - x[a, 2]
+        length = np.sqrt(dx * dx + dy * dy + dz * dz)
+        if length < 1e-12:
+            continue
+        ux, uy, uz = dx / length, dy / length, dz / length
+        closing = (v[b, 0] - v[a, 0]) * ux + (v[b, 1] - v[a, 1]) * uy + (v[b, 2] - v[a, 2]) * uz
+        magnitude = stiffness[s] * (length - rest[s]) + damping[s] * closing
+        forces[a, 0] += magnitude * ux
+        forces[a, 1] += magnitude * uy
+        forces[a, 2] += magnitude * uz
+        forces[b, 0] -= magnitude * ux
+        forces[b, 1] -= magnitude * uy
+        forces[b, 2] -= magnitude * uz
 
 
 @njit(cache=True)
@@ -119,49 +110,47 @@ def length_correction(x, inv_mass, springs, rest, count, limit_ratio):
     """One Provot iteration over the first ``count`` springs: shorten every spring longer than
     ``(1 + limit_ratio) * rest`` back to that length, moving both ends by their inverse masses.
     Returns the largest length / rest length it met, before shortening (0 for no springs)."""
+    return _correct_run(x, inv_mass, springs, rest, 0, count, limit_ratio)
+
+
+@njit(cache=True, parallel=True)
+def length_correction_halves(x, inv_mass, springs, rest, starts, limit_ratio):
+    """``length_correction`` on two threads: each half of the garment's springs on its own thread, in the model's
+    order, then those across the cut (the springs and their rest lengths in ``cloth.halves``' order, ``starts``
+    (4,) its groups'). The same on any number of threads. Returns the largest length / rest length it met,
+    before shortening (0 for no springs)."""
+    worst = np.zeros(3)  # per group (numba's reductions do not reach into the runs)
+    for half in prange(2):
+        worst[half] = _correct_run(x, inv_mass, springs, rest, starts[half], starts[half + 1], limit_ratio)
+    worst[2] = _correct_run(x, inv_mass, springs, rest, starts[2], starts[3], limit_ratio)
+    return worst.max()
+
+
+@njit(cache=True)
+def _correct_run(x, inv_mass, springs, rest, start, end, limit_ratio):
+    """``length_correction`` of the springs ``start:end``; the largest length / rest length it met."""
     worst = 0.0
-    for s in range(count):
-        worst = max(worst, _correct_spring(x, inv_mass, springs[s, 0], springs[s, 1], rest[s], limit_ratio))
+    for s in range(start, end):
+        a = springs[s, 0]
+        b = springs[s, 1]
+        dx, dy, dz, length = _spring_vector(x, a, b)
+        limit = (1.0 + limit_ratio) * rest[s]
+        worst = max(worst, length / rest[s])
+        if length <= limit:
+            continue
+        wa = inv_mass[a]
+        wb = inv_mass[b]
+        total = wa + wb
+        if total == 0.0:
+            continue
+        scale = (length - limit) / (length * total)
+        x[a, 0] += wa * scale * dx
+        x[a, 1] += wa * scale * dy
+        x[a, 2] += wa * scale * dz
+        x[b, 0] -= wb * scale * dx
+        x[b, 1] -= wb * scale * dy
+        x[b, 2] -= wb * scale * dz
     return worst
-
-
-@njit(cache=True, parallel=True)  # a prange reduction (max) needs numba's runtime
-def coloured_length_correction(x, inv_mass, springs, rest, colour_starts, limit_ratio, sweeps):
-    """``sweeps`` iterations of ``length_correction`` over ``springs`` grouped by colour (``colour_order``: no two
-    springs of a colour share a point), each colour's springs over numba's threads. The same result on any number
-    of threads. Returns the largest length / rest length the first sweep met (0 for no springs)."""
-    worst = 0.0
-    for sweep in range(sweeps):
-        for c in range(colour_starts.shape[0] - 1):
-            met = 0.0
-            for s in prange(colour_starts[c], colour_starts[c + 1]):
-                met = max(met, _correct_spring(x, inv_mass, springs[s, 0], springs[s, 1], rest[s], limit_ratio))
-            if sweep == 0:
-                worst = max(worst, met)
-    return worst
-
-
-@njit(cache=True, inline="always")
-def _correct_spring(x, inv_mass, a, b, rest, limit_ratio):
-    """Shorten the spring from a to b to ``(1 + limit_ratio) * rest`` if it is longer (``length_correction``);
-    returns its length / rest length before."""
-    dx, dy, dz, length = _spring_vector(x, a, b)
-    limit = (1.0 + limit_ratio) * rest
-    if length <= limit:
-        return length / rest
-    wa = inv_mass[a]
-    wb = inv_mass[b]
-    total = wa + wb
-    if total == 0.0:
-        return length / rest
-    scale = (length - limit) / (length * total)
-    x[a, 0] += wa * scale * dx
-    x[a, 1] += wa * scale * dy
-    x[a, 2] += wa * scale * dz
-    x[b, 0] -= wb * scale * dx
-    x[b, 1] -= wb * scale * dy
-    x[b, 2] -= wb * scale * dz
-    return length / rest
 
 
 @njit(cache=True)

@@ -51,8 +51,8 @@ import numpy as np
 from ..params import DEFAULT_PARAMS, SolverParams
 from ..transforms import quat_conjugate, quat_multiply, transform_points, yaw_quat
 from . import fused, kernels
-from .colouring import ParallelLayout
 from .frame import ClothState, FrameInput, FrameReport
+from .halves import ParallelLayout
 from .model import BEND, SHEAR, STRUCTURAL, ClothModel
 from .motion_constraints import SkinBinding, limit_distance
 
@@ -198,6 +198,7 @@ class GarmentSolver:
     def set_params(self, params: SolverParams) -> None:
         self.params = params
         self.constants = derive_constants(self.model, params)
+        self._layout = None  # its stiffnesses and dampings are the old ones
         if self.collider is not None:
             self.collider.set_params(params)
 
@@ -296,32 +297,28 @@ class GarmentSolver:
         return transform_points(np.asarray(root_position, float), yaw_quat(root_yaw), self.state.positions)
 
     # -- the frame ---------------------------------------------------------------------------
-    # Sweeps of the coloured length correction per correction iteration (``parallel_layout``): the colour order
-    # converges more slowly than the model's (docs/benchmarks.md, "The 20 000-point frame on both cores").
-    COLOURED_SWEEPS = 1
-
     def parallel_layout(self) -> ParallelLayout | None:
-        """The springs and edges as the threaded kernels take them when the collider spreads the points over
+        """The springs and edges cut in two halves (``cloth.halves``) when the collider spreads the points over
         numba's threads (``Collider.parallel``: from ``PARALLEL_MIN_POINTS`` up), built on first use; None when
-        the garment runs serial. The forces, the length correction and the edge handling then run over the
-        threads too, in colour order (``cloth.colouring``), on the reference path and the fused one alike."""
+        the garment runs serial. The forces, the length correction and the edge handling then run on two threads
+        too, on the reference path and the fused one alike."""
         if self.collider is None or not self.collider.parallel:
             return None
         if self._layout is None:
-            model = self.model
-            self._layout = ParallelLayout.build(model.springs, model.rest_lengths, self._correct_count, self._edges,
-                                                self._edge_rest, model.num_points)
+            model, const = self.model, self.constants
+            self._layout = ParallelLayout.build(model.rest_positions, model.springs, model.rest_lengths,
+                                                const.stiffness, const.damping, self._correct_count, self._edges,
+                                                self._edge_rest)
         return self._layout
 
     def _length_correction(self, x: np.ndarray, inv_mass: np.ndarray, layout: ParallelLayout | None) -> float:
-        """One correction iteration (``kernels.length_correction``; coloured over the threads with a ``layout``);
+        """One correction iteration (``kernels.length_correction``; in halves on two threads with a ``layout``);
         the largest length / rest length it met."""
         if layout is None:
             return kernels.length_correction(x, inv_mass, self.model.springs, self.model.rest_lengths,
                                              self._correct_count, self.params.limit_ratio)
-        return kernels.coloured_length_correction(x, inv_mass, layout.correction_springs, layout.correction_rest,
-                                                  layout.correction_starts, self.params.limit_ratio,
-                                                  self.COLOURED_SWEEPS)
+        return kernels.length_correction_halves(x, inv_mass, layout.correction_springs, layout.correction_rest,
+                                                layout.correction_starts, self.params.limit_ratio)
 
     def advance(self, frame: FrameInput) -> FrameReport:
         params, const, model, state = self.params, self.constants, self.model, self.state
@@ -378,13 +375,14 @@ class GarmentSolver:
             uniform, frame_velocity = relative_frame_forces(
                 params, frame.root_yaw0 + yaw_step * 0.5 * (f0 + f1), v0 + a0 * mid, a0,
                 wind_velocity(params, frame.t0 + mid))
-            forces_args = (x, v, const.mass, model.springs, model.rest_lengths, const.stiffness, const.damping,
-                           uniform, yaw_rate + yaw_acc * mid, yaw_acc, params.air_damping, frame_velocity,
-                           params.angular_inertia_scale, self._forces)
+            frame_args = (uniform, yaw_rate + yaw_acc * mid, yaw_acc, params.air_damping, frame_velocity,
+                          params.angular_inertia_scale, self._forces)
             if layout is None:
-                kernels.accumulate_forces(*forces_args)
+                kernels.accumulate_forces(x, v, const.mass, model.springs, model.rest_lengths, const.stiffness,
+                                          const.damping, *frame_args)
             else:
-                kernels.accumulate_forces_gathered(*forces_args, layout.incidence, layout.spring_forces)
+                kernels.accumulate_forces_halves(x, v, const.mass, layout.springs, layout.rest, layout.stiffness,
+                                                 layout.damping, *frame_args, layout.spring_starts)
             if not math.isfinite(float(np.sum(self._forces))):
                 x[...] = math.nan  # the guard restores; collision handling would turn NaN into garbage
                 break
@@ -428,14 +426,12 @@ class GarmentSolver:
         return report
 
     def _collide(self, x: np.ndarray, v: np.ndarray, h: float, layout: ParallelLayout | None) -> None:
-        """Full collision handling of a substep's end (``Collider.resolve_substep``; the edges in colour order over
-        the threads with a ``layout``)."""
-        if layout is None:
-            edges = (self._edges, self._edge_rest, None)
-        else:
-            edges = (layout.edges, layout.edge_rest, layout.edge_starts)
+        """Full collision handling of a substep's end (``Collider.resolve_substep``; the edges in halves on two
+        threads with a ``layout``)."""
+        edges = (self._edges, self._edge_rest, None) if layout is None else (layout.edges, layout.edge_rest,
+                                                                             layout.edge_starts)
         self.collider.resolve_substep(self._x_start, x, v, self.constants.inv_mass, h, self.state.contacts,
-                                      edges[0], edges[1], self._triangles, edge_colours=edges[2])
+                                      edges[0], edges[1], self._triangles, edge_halves=edges[2])
 
     def _measure_stretch(self, report: FrameReport) -> None:
         """``self.stretches`` and ``report.max_stretch`` for the garment as it is now."""

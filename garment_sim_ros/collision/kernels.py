@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 import types
 
+import numpy as np
 from numba import njit, prange
 
 from .broad_phase import (
@@ -295,91 +296,90 @@ def handle_edges(arrays, xs, x, inv_mass, edges, rest_lengths, edge_pinch_depth)
     10-19 cm a substep, past the guard's stretch. Off by default: the thigh then leaves the trousers'
     leg through the edges left (README, "Real motion"). Returns the number of edges moved.
     """
-    vol = VolumeArrays(*arrays)
-    n_moved = 0
-    for e in range(edges.shape[0]):
-        n_moved += _handle_edge(vol, xs, x, inv_mass, edges, rest_lengths, e, edge_pinch_depth)
-    return n_moved
+    return _handle_edge_run(arrays, xs, x, inv_mass, edges, rest_lengths, 0, edges.shape[0], edge_pinch_depth)
 
 
-@njit(cache=True, parallel=True)  # a prange reduction needs numba's runtime
-def handle_edges_coloured(arrays, xs, x, inv_mass, edges, rest_lengths, colour_starts, edge_pinch_depth):
-    """``handle_edges`` over ``edges`` grouped by colour (``cloth.colouring.colour_order``: no two edges of a
-    colour share a point), each colour's edges over numba's threads; the same result on any number of them."""
-    vol = VolumeArrays(*arrays)
-    n_moved = 0
-    for c in range(colour_starts.shape[0] - 1):
-        for e in prange(colour_starts[c], colour_starts[c + 1]):
-            n_moved += _handle_edge(vol, xs, x, inv_mass, edges, rest_lengths, e, edge_pinch_depth)
-    return n_moved
+@njit(cache=True, parallel=True)
+def handle_edges_halves(arrays, xs, x, inv_mass, edges, rest_lengths, starts, edge_pinch_depth):
+    """``handle_edges`` on two threads: each half of the garment's edges on its own thread, in their order, then
+    those across the cut (the edges and their rest lengths in ``cloth.halves``' order, ``starts`` (4,) its
+    groups'); the same on any number of threads."""
+    moved = np.zeros(3, dtype=np.int64)  # per group (numba's reductions do not reach into the runs)
+    for half in prange(2):
+        moved[half] = _handle_edge_run(arrays, xs, x, inv_mass, edges, rest_lengths, starts[half], starts[half + 1],
+                                       edge_pinch_depth)
+    moved[2] = _handle_edge_run(arrays, xs, x, inv_mass, edges, rest_lengths, starts[2], starts[3], edge_pinch_depth)
+    return moved.sum()
 
 
 @kernel
-def _handle_edge(vol, xs, x, inv_mass, edges, rest_lengths, e, edge_pinch_depth):
-    """Edge e (``handle_edges``): how many volumes moved it out (0 for most edges)."""
+def _handle_edge_run(arrays, xs, x, inv_mass, edges, rest_lengths, start, end, edge_pinch_depth):
+    """``handle_edges`` of the edges ``start:end``; how many moves."""
+    vol = VolumeArrays(*arrays)
     kinds, radii, cuts, planes = vol.kinds, vol.radii, vol.cuts, vol.planes
     bounding_radii, boxes = vol.bounding_radii, vol.boxes
     pos0, rot0, pos, rot = vol.pos0, vol.rot0, vol.pos1, vol.rot1
-    a = edges[e, 0]
-    b = edges[e, 1]
-    if inv_mass[a] == 0.0 and inv_mass[b] == 0.0:
-        return 0
-    length2 = (x[b, 0] - x[a, 0]) ** 2 + (x[b, 1] - x[a, 1]) ** 2 + (x[b, 2] - x[a, 2]) ** 2
-    if length2 < (1.0 - 1e-9) * (_EDGE_SLACK * rest_lengths[e]) ** 2:
-        return 0  # most edges, without a square root; the exact test below decides the borderline ones
-    half = 0.5 * math.sqrt(length2)
-    if 2.0 * half <= _EDGE_SLACK * rest_lengths[e]:
-        return 0  # a chord barely longer than its rest length between two outside points dips no deeper
-    mx, my, mz = 0.5 * (x[a, 0] + x[b, 0]), 0.5 * (x[a, 1] + x[b, 1]), 0.5 * (x[a, 2] + x[b, 2])
-    moved = 0
-    for v in range(kinds.shape[0]):
-        reach = bounding_radii[v] + half
-        if (mx - pos[v, 0]) ** 2 + (my - pos[v, 1]) ** 2 + (mz - pos[v, 2]) ** 2 > reach * reach:
+    n_moved = 0
+    for e in range(start, end):
+        a = edges[e, 0]
+        b = edges[e, 1]
+        if inv_mass[a] == 0.0 and inv_mass[b] == 0.0:
             continue
-        ax, ay, az = to_local(pos, rot, v, x[a, 0], x[a, 1], x[a, 2])
-        bx, by, bz = to_local(pos, rot, v, x[b, 0], x[b, 1], x[b, 2])
-        if segment_misses_box(boxes, v, ax, ay, az, bx, by, bz):
-            continue  # no point of the edge is inside the volume
-        t, inside = deepest_on_segment(kinds[v], radii, cuts, planes, v, ax, ay, az, bx, by, bz)
-        if not inside or t <= 0.0 or t >= 1.0:
-            continue
-        px, py, pz = ax + t * (bx - ax), ay + t * (by - ay), az + t * (bz - az)
-        inside, sx, sy, sz, nx, ny, nz = static_projection(kinds[v], radii, cuts, planes, v, px, py, pz)
-        if not inside:
-            continue
-        # the same point of the edge at the substep's start, in the volume's frame (p0', memo §6.2.1)
-        ox, oy, oz = to_local(pos0, rot0, v, xs[a, 0] + t * (xs[b, 0] - xs[a, 0]),
-                              xs[a, 1] + t * (xs[b, 1] - xs[a, 1]), xs[a, 2] + t * (xs[b, 2] - xs[a, 2]))
-        if (kinds[v] != CAPSULE and ox * nx + oy * ny < 0.0
-                and not static_projection(kinds[v], radii, cuts, planes, v, ox, oy, oz)[0]):
-            # it was clear of the volume, beyond the axis: out there, where the axis' perpendicular
-            # towards the start point meets the surface (static projection of a point just off it)
-            ux, uy = ox, oy
-            norm = math.sqrt(ux * ux + uy * uy)
-            if norm > TINY:
-                lift = 1e-6 * max(radii[v, 0], radii[v, 1])
-                inside, sx, sy, sz, nx, ny, nz = static_projection(
-                    kinds[v], radii, cuts, planes, v, lift * ux / norm, lift * uy / norm, pz)
-                if not inside:
-                    continue
-        dip = math.sqrt((sx - px) ** 2 + (sy - py) ** 2 + (sz - pz) ** 2)
-        r = radii[v, 0] if kinds[v] == SPHERE else math.sqrt(sx * sx + sy * sy)
-        half_chord = min(r, 0.5 * rest_lengths[e])
-        excess = dip - (r - math.sqrt(r * r - half_chord * half_chord))
-        if excess <= 0.0:
-            continue
-        wx, wy, wz = rotate(rot, v, excess * nx, excess * ny, excess * nz)
-        if edge_pinch_depth > 0.0 and (
-                depth_elsewhere(vol, v, x[a, 0] + wx, x[a, 1] + wy, x[a, 2] + wz) > edge_pinch_depth
-                or depth_elsewhere(vol, v, x[b, 0] + wx, x[b, 1] + wy, x[b, 2] + wz) > edge_pinch_depth):
-            continue  # out of v is into another volume: a pinch, where contact wins (see the docstring)
-        for i in (a, b):
-            if inv_mass[i] > 0.0:
-                x[i, 0] += wx
-                x[i, 1] += wy
-                x[i, 2] += wz
-        moved += 1
-    return moved
+        length2 = (x[b, 0] - x[a, 0]) ** 2 + (x[b, 1] - x[a, 1]) ** 2 + (x[b, 2] - x[a, 2]) ** 2
+        if length2 < (1.0 - 1e-9) * (_EDGE_SLACK * rest_lengths[e]) ** 2:
+            continue  # most edges, without a square root; the exact test below decides the borderline ones
+        half = 0.5 * math.sqrt(length2)
+        if 2.0 * half <= _EDGE_SLACK * rest_lengths[e]:
+            continue  # a chord barely longer than its rest length between two outside points dips no deeper
+        mx, my, mz = 0.5 * (x[a, 0] + x[b, 0]), 0.5 * (x[a, 1] + x[b, 1]), 0.5 * (x[a, 2] + x[b, 2])
+        for v in range(kinds.shape[0]):
+            reach = bounding_radii[v] + half
+            if (mx - pos[v, 0]) ** 2 + (my - pos[v, 1]) ** 2 + (mz - pos[v, 2]) ** 2 > reach * reach:
+                continue
+            ax, ay, az = to_local(pos, rot, v, x[a, 0], x[a, 1], x[a, 2])
+            bx, by, bz = to_local(pos, rot, v, x[b, 0], x[b, 1], x[b, 2])
+            if segment_misses_box(boxes, v, ax, ay, az, bx, by, bz):
+                continue  # no point of the edge is inside the volume
+            t, inside = deepest_on_segment(kinds[v], radii, cuts, planes, v, ax, ay, az, bx, by, bz)
+            if not inside or t <= 0.0 or t >= 1.0:
+                continue
+            px, py, pz = ax + t * (bx - ax), ay + t * (by - ay), az + t * (bz - az)
+            inside, sx, sy, sz, nx, ny, nz = static_projection(kinds[v], radii, cuts, planes, v, px, py, pz)
+            if not inside:
+                continue
+            # the same point of the edge at the substep's start, in the volume's frame (p0', memo §6.2.1)
+            ox, oy, oz = to_local(pos0, rot0, v, xs[a, 0] + t * (xs[b, 0] - xs[a, 0]),
+                                  xs[a, 1] + t * (xs[b, 1] - xs[a, 1]), xs[a, 2] + t * (xs[b, 2] - xs[a, 2]))
+            if (kinds[v] != CAPSULE and ox * nx + oy * ny < 0.0
+                    and not static_projection(kinds[v], radii, cuts, planes, v, ox, oy, oz)[0]):
+                # it was clear of the volume, beyond the axis: out there, where the axis' perpendicular
+                # towards the start point meets the surface (static projection of a point just off it)
+                ux, uy = ox, oy
+                norm = math.sqrt(ux * ux + uy * uy)
+                if norm > TINY:
+                    lift = 1e-6 * max(radii[v, 0], radii[v, 1])
+                    inside, sx, sy, sz, nx, ny, nz = static_projection(
+                        kinds[v], radii, cuts, planes, v, lift * ux / norm, lift * uy / norm, pz)
+                    if not inside:
+                        continue
+            dip = math.sqrt((sx - px) ** 2 + (sy - py) ** 2 + (sz - pz) ** 2)
+            r = radii[v, 0] if kinds[v] == SPHERE else math.sqrt(sx * sx + sy * sy)
+            half_chord = min(r, 0.5 * rest_lengths[e])
+            excess = dip - (r - math.sqrt(r * r - half_chord * half_chord))
+            if excess <= 0.0:
+                continue
+            wx, wy, wz = rotate(rot, v, excess * nx, excess * ny, excess * nz)
+            if edge_pinch_depth > 0.0 and (
+                    depth_elsewhere(vol, v, x[a, 0] + wx, x[a, 1] + wy, x[a, 2] + wz) > edge_pinch_depth
+                    or depth_elsewhere(vol, v, x[b, 0] + wx, x[b, 1] + wy, x[b, 2] + wz) > edge_pinch_depth):
+                continue  # out of v is into another volume: a pinch, where contact wins (see the docstring)
+            for i in (a, b):
+                if inv_mass[i] > 0.0:
+                    x[i, 0] += wx
+                    x[i, 1] += wy
+                    x[i, 2] += wz
+            n_moved += 1
+    return n_moved
 
 
 @kernel
