@@ -70,7 +70,8 @@ def _frame_force(x, v, mass, i, uniform_accel, omega_z, alpha_z, drag_rate, fram
 def _add_spring_forces(x, v, springs, rest, stiffness, damping, start, end, forces):
     """The forces of the springs ``start:end``, with damping along each, added to their first ends and taken
     from their second."""
-    for s in range(start, end):
+    for k in range(start, end):
+        s = np.uint64(k)  # unsigned: no test for a negative index (a run from a start not known >= 0: 10 % dearer)
         a = springs[s, 0]
         b = springs[s, 1]
         dx = x[b, 0] - x[a, 0]
@@ -130,7 +131,8 @@ def length_correction_halves(x, inv_mass, springs, rest, starts, limit_ratio):
 def _correct_run(x, inv_mass, springs, rest, start, end, limit_ratio):
     """``length_correction`` of the springs ``start:end``; the largest length / rest length it met."""
     worst = 0.0
-    for s in range(start, end):
+    for k in range(start, end):
+        s = np.uint64(k)  # unsigned: no test for a negative index (a run from a start not known >= 0: 10 % dearer)
         a = springs[s, 0]
         b = springs[s, 1]
         dx, dy, dz, length = _spring_vector(x, a, b)

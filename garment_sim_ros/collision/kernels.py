@@ -320,7 +320,8 @@ def _handle_edge_run(arrays, xs, x, inv_mass, edges, rest_lengths, start, end, e
     bounding_radii, boxes = vol.bounding_radii, vol.boxes
     pos0, rot0, pos, rot = vol.pos0, vol.rot0, vol.pos1, vol.rot1
     n_moved = 0
-    for e in range(start, end):
+    for k in range(start, end):
+        e = np.uint64(k)  # unsigned: no test for a negative index (a run from a start not known >= 0: dearer)
         a = edges[e, 0]
         b = edges[e, 1]
         if inv_mass[a] == 0.0 and inv_mass[b] == 0.0:
