@@ -299,10 +299,13 @@ class GarmentSolver:
     # -- the frame ---------------------------------------------------------------------------
     def parallel_layout(self) -> ParallelLayout | None:
         """The springs and edges cut in two halves (``cloth.halves``) when the collider spreads the points over
-        numba's threads (``Collider.parallel``: from ``PARALLEL_MIN_POINTS`` up), built on first use; None when
-        the garment runs serial. The forces, the length correction and the edge handling then run on two threads
-        too, on the reference path and the fused one alike."""
-        if self.collider is None or not self.collider.parallel:
+        numba's threads (``Collider.parallel``: from ``PARALLEL_MIN_POINTS`` up) and the garment hangs from
+        attached points, built on first use; None when it runs serial. The forces, the length correction and the
+        edge handling then run on two threads too, on the reference path and the fused one alike. A garment
+        with no attached point (the drape's free sheet) stays serial: each half of a hanging garment runs from
+        its attachments down, but a free sheet's cut lags where it lies on the body, and the drape's worst
+        stretch rose from 1.097 to 1.156 (docs/benchmarks.md)."""
+        if self.collider is None or not self.collider.parallel or len(self.model.attached) == 0:
             return None
         if self._layout is None:
             model, const = self.model, self.constants
