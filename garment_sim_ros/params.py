@@ -168,6 +168,9 @@ PARAMETERS: tuple[Param, ...] = (
     Param("pinch_depth", 0.001, "m", 0.0, 0.1,
           "a triangle a bone passes through is moved off it unless that puts a point deeper than this into "
           "another volume (a pinch: a hand on the hip); contact wins there"),
+    Param("pressed_pinch_depth", 0.01, "m", 0.0, 0.1,
+          "the same, into a volume that may be pressed against the bone's (``contact_planes``: a forearm "
+          "on the hip or the thigh); the point handling after the bones' takes such a point out again"),
     Param("edge_pinch_depth", 0.0, "m", 0.0, 0.1,
           "opt-in: an edge a limb cuts stays cut when moving it out would put an end deeper than this into "
           "another volume (a thigh against the belly); 0: off, edges always move out"),
@@ -231,6 +234,7 @@ class SolverParams:
     dynamic_switch_ratio: float
     max_distance: float
     pinch_depth: float
+    pressed_pinch_depth: float
     edge_pinch_depth: float
     contact_planes: int
     press_clearance: float

@@ -366,6 +366,22 @@ def test_pants_legs_are_separate_tubes_around_the_legs():
         assert sign * centre[1] > 0.05
 
 
+def test_trousers_crotch_seam_is_fine_and_the_leg_rings_step_down_below_it():
+    """The crotch seam's segments (back centre, interior seam vertices, front centre) are at most 60 mm (95 mm with
+    2 interior vertices: the pelvis bulged through between them onto a thigh's bone); the leg's first rings have
+    as many vertices as its top ring, the rest fewer, so the trousers keep the memo's size."""
+    mesh = build_garment("pants")
+    x = mesh.vertices
+    left, right = mesh.rings["left_leg"], mesh.rings["right_leg"]
+    shared = np.flatnonzero(np.isin(left[0], right[0]))  # the hip ring's front (0) and back centres, the seam
+    chain = left[0][[*shared[1:], 0]]  # back centre -> seam -> front centre
+    assert shared[1] == len(mesh.rings["waistband"][0]) // 2
+    assert np.linalg.norm(np.diff(x[chain], axis=0), axis=1).max() <= 0.060
+    counts = [len(ring) for ring in left]
+    assert counts[:3] == [21, 21, 21] and set(counts[3:]) == {19}
+    assert counts == [len(ring) for ring in right]
+
+
 def test_long_skirt_opens_a_walking_vent_where_it_cannot_go_round_the_stride():
     """Below the ring that still goes round both legs in the cut's stride (``garments._STRIDE``), the long
     skirt is open at the back: each opened ring is a chain from the back centre round to a copy of it, the

@@ -87,6 +87,30 @@ def test_a_forearm_at_the_hip_does_not_stay_caught_under_the_waistband():
     assert not any(through[90:])
 
 
+def test_a_hand_on_the_hip_does_not_spear_the_trousers():
+    """Issue 11 (b), cmu_131 (a walk with the left hand on the hip from 1.83 s), trousers, 1x at 60 fps: the
+    forearm is pressed up to 45 mm into the pelvis' and 43 mm into the left thigh's volumes and its wrist spears
+    the row under the waistband. Every way off the bone put the corner beyond the wrist up to 8 mm into the thigh, past
+    ``pinch_depth`` (1 mm): contact won, the crossing passed to the band's row and stayed there while the hand
+    did (28 frames, 1.83-2.28 s). Into a volume pressed against the bone's the corner may go
+    ``pressed_pinch_depth`` (10 mm) deep, and ``crossing.out_of_pinches`` takes it out again: no frame with a bone
+    through, no point deeper than 1 mm."""
+    row = evaluate_run(Run(str(DATA / "cmu_131_01_walk_mjstyle.bvh"), "pants", 1.0, 60.0, 2.4))
+    assert row["frames"] == 144
+    assert row["bones_frames"] == 0, row["bones_frames"]
+    assert row["targets"]["a"] and row["legs_off_frames"] == 0
+
+
+def test_cloth_moved_off_a_bone_into_a_pressed_volume_does_not_stay_there():
+    """Issue 11 (a), the CC jump, trousers, 1x at 60 fps, 3 s: the right hand at the hip from 1.08 s. Corners
+    the bones' handling puts up to ``pressed_pinch_depth`` into the pelvis stayed there when the bones had the
+    last word (15.1 mm deep at a frame's end); ``crossing.out_of_pinches`` puts every free point deeper than
+    ``pinch_depth`` out of its volume after the bones' handling: none deeper than 1 mm."""
+    row = evaluate_run(Run(str(DATA / "cc_cmu_02_04_jump_balance.bvh"), "pants", 1.0, 60.0, 3.0))
+    assert row["frames"] == 180
+    assert row["max_depth_mm"] <= 1.0, row["max_depth_mm"]
+
+
 def test_a_hand_poking_into_the_skirt_does_not_take_the_arm_through_it():
     """Issue 11, cmu_01_01 (jumps), long skirt, 3x at 30 fps, the whole clip: a wrist, the forearm bone's end,
     reaches the skirt from beyond it. Each triangle it reached went across the bone to a side, which only passed
@@ -164,3 +188,15 @@ def test_the_trousers_waistband_follows_the_trunk_through_the_cartwheels_bend():
     row = evaluate_run(Run(str(DATA / "cc_cmu_05_06_dance_cartwheel_pirouette.bvh"), "pants", 3.0, 30.0))
     assert row["frames"] == 73
     assert (row["bones_frames"], row["legs_off_frames"], row["guard_firings"]) == (0, 0, 0)
+
+
+def test_a_thigh_does_not_go_through_the_trousers_crotch_into_the_other_leg():
+    """CC jump, trousers, 3x at 60 fps, to just past the landing (issue 11 (c)): the left thigh's bone, 11-30 %
+    down from the hip joint and inside the pelvis volume, reached the crotch band, which the pelvis bulged
+    through between its corners. Every way off the bone put a corner 2-108 mm into the pelvis, so the pinch
+    rule left it crossed (``crossing._destinations``) and the thigh walked through the seam: from frame 33 the
+    left trouser leg's first ring went round no volume. The crotch seam had 2 interior vertices (segments
+    95 mm, the hip ring's 28-38 mm); with 4 (57 mm, ``garments.pants``) no leg is off."""
+    row = evaluate_run(Run(str(DATA / "cc_cmu_02_04_jump_balance.bvh"), "pants", 3.0, 60.0, 0.7))
+    assert row["frames"] == 42
+    assert row["legs_off_frames"] == 0, row["legs_off_frames"]

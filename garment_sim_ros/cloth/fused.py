@@ -107,7 +107,7 @@ def advance_substeps(solver, frame, count: int, h: float, v0, a0, yaw_rate: floa
                 int(params.strain_limit_iterations), float(params.contact_mobility),
                 1.0 + params.limit_ratio + params.strain_limit_tolerance, float(solver.STRAIN_LIMIT_UNDONE))
     contact = (collider._eps, collider._friction, collider._c_time, collider._switch_ratio, collider._mode,
-               collider._pinch_depth, collider._edge_pinch_depth, collider._grip, collider._margin)
+               collider._edge_pinch_depth, collider._grip, collider._margin, collider._pinch_depth)
     pressing = collider.pressing
     press = collider._press_with
     ticks = np.zeros(4, dtype=np.int64)
@@ -175,7 +175,7 @@ def run_substeps(x, v, contacts, garment, scratch, uniform, frame_velocity, omeg
     forces, x_start = scratch[0], scratch[1]
     (h, yaw_acc, air_damping, rotation_scale, iterations, limit_ratio, tethers, tether_scale, constrained,
      max_distance, strain_iterations) = settings[:11]
-    eps, friction, switch_ratio, mode, grip = contact[0], contact[1], contact[3], contact[4], contact[7]
+    eps, friction, switch_ratio, mode, grip = contact[0], contact[1], contact[3], contact[4], contact[6]
     n_static = 0
     n_dynamic = 0
     pressed = 0.0
@@ -236,19 +236,19 @@ def _sum(a):
 @njit(cache=True)
 def _points(arrays, xs, x, v, inv_mass, h, contacts, scratch, contact):
     """``Collider._points``: every point against every volume; (static hits, dynamic hits)."""
-    return _handle_all(arrays, xs, x, v, inv_mass, h, contact[0], contact[1], contact[7], contact[2], contact[3],
-                       contact[4], contact[8], contacts, scratch[9])
+    return _handle_all(arrays, xs, x, v, inv_mass, h, contact[0], contact[1], contact[6], contact[2], contact[3],
+                       contact[4], contact[7], contacts, scratch[9])
 
 
 @njit(cache=True)
 def _resolve(arrays, xs, x, v, inv_mass, h, contacts, edges, triangles, scratch, contact):
     """``Collider.resolve_substep`` (same calls, same retry); ``edges``: (edges, rest lengths, starts of the
     halves); (static hits, dynamic hits)."""
-    eps, friction, switch_ratio, mode, pinch_depth, edge_pinch_depth, grip = (
-        contact[0], contact[1], contact[3], contact[4], contact[5], contact[6], contact[7])
+    eps, friction, switch_ratio, mode, edge_pinch_depth, grip = (
+        contact[0], contact[1], contact[3], contact[4], contact[5], contact[6])
     n_static, n_dynamic = _points(arrays, xs, x, v, inv_mass, h, contacts, scratch, contact)
-    crossed = crossing.handle_axes(arrays, xs, x, v, inv_mass, h, triangles, eps, pinch_depth, AXIS_PASSES,
-                                   scratch[10], scratch[11])
+    crossed = crossing.handle_axes(arrays, xs, x, v, inv_mass, h, triangles, eps, AXIS_PASSES, scratch[10],
+                                   scratch[11])
     if _handle_edges(arrays, xs, x, inv_mass, edges[0], edges[1], edges[2], edge_pinch_depth) or crossed:
         n_static += _handle_contacts(arrays, xs, x, v, inv_mass, h, eps, friction, grip, switch_ratio, mode,
                                      contacts)
@@ -256,8 +256,8 @@ def _resolve(arrays, xs, x, v, inv_mass, h, contacts, edges, triangles, scratch,
         s, d = _points(arrays, xs, x, v, inv_mass, h, contacts, scratch, contact)
         n_static += s
         n_dynamic += d
-        crossing.handle_axes(arrays, xs, x, v, inv_mass, h, triangles, eps, pinch_depth, AXIS_PASSES, scratch[10],
-                             scratch[11])
+        if crossing.handle_axes(arrays, xs, x, v, inv_mass, h, triangles, eps, AXIS_PASSES, scratch[10], scratch[11]):
+            crossing.out_of_pinches(arrays, x, inv_mass, eps, contact[8])
     return n_static, n_dynamic
 
 
@@ -271,7 +271,7 @@ def _limit_strain(arrays, xs, x, v, inv_mass, h, contacts, correction, edges, tr
     limit_ratio, constrained, max_distance, strain_iterations = settings[5], settings[8], settings[9], settings[10]
     springs, rest, starts = correction
     mobility, converged, undone = settings[11], settings[12], settings[13]
-    eps, friction, switch_ratio, mode, grip = contact[0], contact[1], contact[3], contact[4], contact[7]
+    eps, friction, switch_ratio, mode, grip = contact[0], contact[1], contact[3], contact[4], contact[6]
     kernels.contact_weights(x, x_collision, inv_mass, mobility, strain_inv_mass)
     x_kept[:] = x
     v_kept[:] = v

@@ -98,6 +98,24 @@ def _band(upper: np.ndarray, lower: np.ndarray) -> np.ndarray:
     return np.concatenate([first, second])
 
 
+def _step_band(upper: np.ndarray, lower: np.ndarray) -> np.ndarray:
+    """Triangles joining two closed rings of unequal lengths (as ``_band``), each evenly spaced round the tube
+    from the same starting angle: both rings are walked round together, each triangle advancing along the
+    ring whose next vertex comes first."""
+    upper_next = np.arange(1, len(upper) + 1) / len(upper)  # share of the way round
+    lower_next = np.arange(1, len(lower) + 1) / len(lower)
+    triangles = []
+    i = j = 0
+    while i < len(upper) or j < len(lower):
+        if j == len(lower) or (i < len(upper) and upper_next[i] < lower_next[j]):
+            triangles.append((upper[i], lower[j % len(lower)], upper[(i + 1) % len(upper)]))
+            i += 1
+        else:
+            triangles.append((upper[i % len(upper)], lower[j], lower[(j + 1) % len(lower)]))
+            j += 1
+    return np.array(triangles, dtype=np.int64)
+
+
 def _tube(levels: list[tuple[float, float, float, float, float]], around: int):
     """Vertices and triangles of a tube from (center_x, center_y, z, rx, ry) levels, top first."""
     vertices = np.concatenate([_ring(cx, cy, z, rx, ry, around) for cx, cy, z, rx, ry in levels])
@@ -249,7 +267,8 @@ def pants(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> Ga
     """Trousers: a hip tube from the waist to below the crotch (``_crotch_drop``) that splits into two leg tubes.
 
     The hip ring's front and back centre vertices, joined by a crotch seam of interior
-    vertices, start both legs: each leg's first ring is half of the hip ring plus the seam.
+    vertices, start both legs: each leg's first ring is half of the hip ring plus the seam;
+    a few rings down, the leg's rings step down to fewer vertices.
     """
     ease = 0.012
     n_around, n_hip_levels = _counts(resolution, 32, 3)  # hip ring size, levels from the waist to the crotch
@@ -259,8 +278,18 @@ def pants(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> Ga
     rise = body.waist_z - body.crotch_z
     n_hip_levels = 1 + round((n_hip_levels - 1) * (body.waist_z - seam_z) / rise)
     half = n_around // 2
-    seam = max(1, round(2 * resolution))  # interior crotch-seam vertices
-    leg_around = half + 1 + seam
+    # Interior crotch-seam vertices: 4 make its segments 57 mm (2 made them 95 mm, the hip ring's are 28-38 mm),
+    # short enough that the pelvis volume does not bulge through the crotch between them onto a thigh's bone,
+    # which then walked through the seam into the other trouser leg at 2-3x (docs/real_motion.md, "Trouser legs
+    # off at 2-3x": legs-off frames 209 -> 0 on seven such runs).
+    seam = max(1, round(4 * resolution))
+    # The leg's first rings below the crotch have as many vertices as its top ring (half the hip ring and the
+    # seam: 21); the rest step down to 19 (33-38 mm apart, as fine as the hip ring), which keeps the trousers
+    # at the memo's size (Table 1: 548 points; 672 here, 720 with every ring at 21). Stepping down at ring 1 or
+    # ring 4 instead let a thigh out of its leg again (the CC jump at 3x: 50 and 12 legs-off frames).
+    top_around = half + 1 + seam
+    leg_around = half + 1 + max(1, round(2 * resolution))
+    n_top_rings = max(1, round(2 * resolution))  # leg rings below the top ring with ``top_around`` vertices
     n_leg_levels = max(3, round(14 * resolution))
     hem_z = body.ankle_z + 0.05
 
@@ -305,10 +334,12 @@ def pants(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> Ga
             # The legs' inner sides must not cross the body's mid-plane into the other leg.
             ry = min(radius, 0.5 * (body.leg_y + radius - _LEG_GAP))
             centre_y = max(body.leg_y, _LEG_GAP + ry)
-            vertices.append(_ring(body.leg_x, sign * centre_y, z, radius, ry, leg_around, phase=start))
-            rings.append(np.arange(count, count + leg_around))
-            count += leg_around
-        triangles.extend(_band(rings[i], rings[i + 1]) for i in range(len(rings) - 1))
+            around = top_around if k <= n_top_rings else leg_around
+            vertices.append(_ring(body.leg_x, sign * centre_y, z, radius, ry, around, phase=start))
+            rings.append(np.arange(count, count + around))
+            count += around
+        triangles.extend(_band(upper, lower) if len(upper) == len(lower) else _step_band(upper, lower)
+                         for upper, lower in zip(rings[:-1], rings[1:]))
         leg_rings[f"{side}_leg"] = rings
     return GarmentMesh(
         "pants", np.concatenate(vertices), np.concatenate(triangles), {"pelvis": hip_rings[0]},

@@ -92,6 +92,9 @@ class Collider:
         self._room = max(float(params.press_gap), 2.0 * self._eps)
         if not self._press:
             self.arrays.planes[...] = no_planes(len(self.volumes))
+        self.arrays.pinch_depths[...] = float(params.pinch_depth)
+        for a, b in self.pressing:
+            self.arrays.pinch_depths[a, b] = self.arrays.pinch_depths[b, a] = float(params.pressed_pinch_depth)
 
     def begin_frame(self, pos0, rot0, pos1, rot1) -> None:
         """Volume poses at the frame's start and end: (V, 3) positions, (V, 4) xyzw quaternions."""
@@ -150,11 +153,14 @@ class Collider:
         through go back to their side of it and edges a limb cuts into go back out; if either moved
         anything, the points that put into a volume are handled again -- the cached contacts, then,
         as an edge moved off one volume can meet its neighbour, the edges and every point against
-        every volume once more, and the bones last, so that a pinch ends with the cloth on its side
-        of the bone (``collision.crossing``). Points (N, 3) m, velocities m/s, ``h`` s; ``contacts``
-        as ``new_contacts`` makes it; ``edges`` (E, 2) with ``edge_rest`` (E,) m; ``triangles`` (T, 3);
-        ``edge_halves``: where the halves start (4,) when the edges are in ``cloth.halves``' order, each half then
-        handled on its own thread; None: in their order on one."""
+        every volume once more, then the bones, so that a pinch ends with the cloth on its side of
+        the bone (``collision.crossing``), and, if those moved any, every point against every volume
+        last: a corner the bones' handling put up to ``pressed_pinch_depth`` into a volume pressed
+        against the bone's (a hand on the hip, its wrist against the thigh: cmu_131) goes out of it.
+        Points (N, 3) m, velocities m/s, ``h`` s; ``contacts`` as ``new_contacts`` makes it; ``edges``
+        (E, 2) with ``edge_rest`` (E,) m; ``triangles`` (T, 3); ``edge_halves``: where the halves start (4,)
+        when the edges are in ``cloth.halves``' order, each half then handled on its own thread; None: in their
+        order on one."""
         self._check_points(x_start, x, v, inv_mass, h, contacts)
         edges, edge_rest = self._check_edges(edges, edge_rest)
         self._check_triangles(triangles)
@@ -165,7 +171,8 @@ class Collider:
             self._contacts(x_start, x, v, inv_mass, h, contacts, self._mode)
             self._edges(x_start, x, inv_mass, edges, edge_rest, edge_halves)
             self._points(x_start, x, v, inv_mass, h, contacts)
-            self._axes(x_start, x, v, inv_mass, h, triangles)
+            if self._axes(x_start, x, v, inv_mass, h, triangles):
+                crossing.out_of_pinches(self._packed, x, inv_mass, self._eps, self._pinch_depth)
 
     def handle_contacts(self, x_start, x, v, inv_mass, h: float, contacts) -> None:
         """Handling of the cached (in-contact) pairs, ``contacts``, at the substep-end poses (memo §3 step 4).
@@ -226,8 +233,8 @@ class Collider:
                                                self._edge_pinch_depth))
 
     def _axes(self, x_start, x, v, inv_mass, h: float, triangles) -> int:
-        return int(crossing.handle_axes(self._packed, x_start, x, v, inv_mass, h, triangles, self._eps,
-                                        self._pinch_depth, AXIS_PASSES, self._corners, self._triangle_boxes))
+        return int(crossing.handle_axes(self._packed, x_start, x, v, inv_mass, h, triangles, self._eps, AXIS_PASSES,
+                                        self._corners, self._triangle_boxes))
 
     def penetration_depths(self, x) -> np.ndarray:
         """(N,) metres inside the deepest volume at the substep-end poses, 0 outside.

@@ -18,8 +18,12 @@ Priority in a pinch (a forearm on the hip, an arm against the chest: two volumes
 squeeze the cloth): the cloth goes no further than where the other volume begins (``_room``), and a
 triangle that could only clear the bone with a corner deeper than ``pinch_depth`` in another volume
 is left crossed: contact wins over crossing, so the depth the pinch costs is bounded by
-``pinch_depth``. Where the bodies' volumes overlap more than that round a bone (a wrist inside the
-hip volume), no cloth position is both outside the volumes and off the bone.
+``pinch_depth``. Into a volume that may be pressed against the bone's (``contact_planes``: flesh that
+gives way) a corner may go ``pressed_pinch_depth`` deep (``VolumeArrays.pinch_depths``), and the point
+handling after the bones' takes it out again (``Collider.resolve_substep``): on cmu_131 the wrist of a
+hand on the hip spears the trousers under the band, and every way off the bone put a corner 1-8 mm into
+the thigh. Where the bodies' volumes overlap more than that round a bone (a wrist inside the hip volume),
+no cloth position is both outside the volumes and off the bone.
 
 ``segment_crosses_triangle`` is the crossing test of the metric as well (``quality``), so both
 agree on what "through" means.
@@ -32,12 +36,13 @@ import math
 from .geometry import (
     entry,
     kernel,
+    penetration_depth,
     rotate,
     static_projection,
     to_local,
     to_world,
 )
-from .response import depth_elsewhere, surface_velocity
+from .response import deepest_elsewhere, depth_elsewhere, surface_velocity
 from .volume_arrays import VolumeArrays
 
 # Barycentric and segment-parameter slack of the crossing test: a bone through a shared edge or
@@ -53,6 +58,7 @@ _ACROSS = 0.3
 # along one row, a few cm long; a bone's segment box meets few of them)
 AXIS_BLOCK = 32
 _BOX_SLACK = 1e-9  # m, the segment box's slack in ``segment_misses_triangle_box``
+_OUT_OF_PINCHES = 3  # volumes a point is put out of in turn (``out_of_pinches``: the pelvis, then a thigh)
 
 
 @kernel
@@ -295,12 +301,13 @@ def _load_corners(vol, v, x, triangles, t, corners):
 
 
 @kernel
-def _destinations(vol, v, ux, uy, past_end, eps, pinch_depth, corners):
+def _destinations(vol, v, ux, uy, past_end, eps, corners):
     """Where the corners (``corners`` (3, 3), local, replaced by their destinations in the simulation frame) go
     off volume v's bone: across it, along the local unit (ux, uy, 0), each corner short of ``eps`` along it goes
     there; ``past_end``: along the bone, each corner short of ``eps`` beyond its far end goes there. A corner so
     moved that is inside v goes out across v's surface (radially, or across its far cut), but not into another
-    volume (``_room``). False when a corner would end deeper than ``pinch_depth`` in another volume."""
+    volume (``_room``). False when a corner would end deeper in another volume o than ``vol.pinch_depths[v, o]``
+    (``_too_deep``)."""
     for k in range(3):
         lx, ly, lz = corners[k, 0], corners[k, 1], corners[k, 2]
         if past_end:
@@ -321,13 +328,28 @@ def _destinations(vol, v, ux, uy, past_end, eps, pinch_depth, corners):
                     out = _room(vol, v, lx, ly, lz, rx, ry, 0.0, out)
                     lx, ly = lx + out * rx, ly + out * ry
         corners[k, 0], corners[k, 1], corners[k, 2] = to_world(vol.pos1, vol.rot1, v, lx, ly, lz)
-        if depth_elsewhere(vol, v, corners[k, 0], corners[k, 1], corners[k, 2]) > pinch_depth:
+        if _too_deep(vol, v, corners[k, 0], corners[k, 1], corners[k, 2]):
             return False  # no room for the cloth between this bone and another volume: contact wins
     return True
 
 
 @kernel
-def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, pinch_depth, corners):
+def _too_deep(vol, v, px, py, pz):
+    """Whether the simulation-frame point p is deeper in a volume o other than v than a corner moved off v's bone
+    may be (``vol.pinch_depths[v, o]``), at the end poses."""
+    pos, rot = vol.pos1, vol.rot1
+    for o in range(vol.kinds.shape[0]):
+        if o == v or (px - pos[o, 0]) ** 2 + (py - pos[o, 1]) ** 2 + (pz - pos[o, 2]) ** 2 > (
+                vol.bounding_radii[o] ** 2):
+            continue
+        lx, ly, lz = to_local(pos, rot, o, px, py, pz)
+        if penetration_depth(vol.kinds[o], vol.radii, vol.cuts, vol.planes, o, lx, ly, lz) > vol.pinch_depths[v, o]:
+            return True
+    return False
+
+
+@kernel
+def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, corners):
     """Move triangle t, crossed by volume v's axis at local height z (barycentric u, w), off the bone
     (``_destinations``). A triangle the limb's end reached from beyond it (``_entered_end``: a hand poking into a
     skirt) goes back past the end along the bone; moved across the bone there, it only passed the bone on to a
@@ -338,8 +360,8 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
     removed. A triangle with an attached corner (it rides on the body) goes to the side its attached corners are
     on (``_attached_side``) when the bone reached it in this substep; one caught already, or whose attached
     corners straddle the bone, is left as it is, and so is one that would end with a corner deeper than
-    ``pinch_depth`` in another volume: where two volumes overlap more than that round a bone there is no room
-    for cloth, and contact wins.
+    ``vol.pinch_depths`` allows in another volume: where two volumes overlap more than that round a bone there is
+    no room for cloth, and contact wins.
     Returns whether it moved."""
     _load_corners(vol, v, x, triangles, t, corners)
     ux, uy, uz = 0.0, 0.0, 0.0
@@ -351,15 +373,14 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
         ux, uy, clear = _attached_side(triangles, t, inv_mass, corners, eps)
         if not clear:
             return False  # its attached corners straddle the bone: no move of the free ones clears it
-        if not _destinations(vol, v, ux, uy, False, eps, pinch_depth, corners):
+        if not _destinations(vol, v, ux, uy, False, eps, corners):
             return False
-    elif _entered_end(vol, v, triangles, t, u, w, xs) and _destinations(vol, v, 0.0, 0.0, True, eps, pinch_depth,
-                                                                         corners):
+    elif _entered_end(vol, v, triangles, t, u, w, xs) and _destinations(vol, v, 0.0, 0.0, True, eps, corners):
         uz = 1.0
     else:
         _load_corners(vol, v, x, triangles, t, corners)
         ux, uy = _side_direction(vol, v, z, triangles, t, u, w, xs, x, corners, eps)
-        if not _destinations(vol, v, ux, uy, False, eps, pinch_depth, corners):
+        if not _destinations(vol, v, ux, uy, False, eps, corners):
             return False
     pos1, rot1 = vol.pos1, vol.rot1
     wnx, wny, wnz = rotate(rot1, v, ux, uy, uz)
@@ -379,7 +400,7 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
 
 
 @kernel
-def handle_axes(arrays, xs, x, vel, inv_mass, h, triangles, eps, pinch_depth, passes, corners, boxes):
+def handle_axes(arrays, xs, x, vel, inv_mass, h, triangles, eps, passes, corners, boxes):
     """Every volume axis (the bones; not spheres) against every triangle (T, 3) of ``x`` at the end poses;
     a crossed triangle goes off the axis (``_push_off_axis``). Moving one can cross a neighbour, so up to
     ``passes`` passes, until one moves nothing. ``corners`` (3, 3) and ``boxes`` (``axis_block_count(T)``, 6):
@@ -411,9 +432,31 @@ def handle_axes(arrays, xs, x, vel, inv_mass, h, triangles, eps, pinch_depth, pa
                         continue
                     crosses, s, u, w = segment_crosses_triangle(px, py, pz, dx, dy, dz, x, a, b, c)
                     if crosses and _push_off_axis(vol, v, z0 + s * (z1 - z0), triangles, t, u, w, xs, x, vel,
-                                                  inv_mass, h, eps, pinch_depth, corners):
+                                                  inv_mass, h, eps, corners):
                         moved += 1
         n_moved += moved
         if moved == 0:
             break
     return n_moved
+
+
+@kernel
+def out_of_pinches(arrays, x, inv_mass, eps, depth):
+    """Free points (``x`` (N, 3), in place) deeper than ``depth`` in a volume go out of it, ``eps`` beyond its surface
+    as pressed (``geometry.static_projection``), the deepest first, up to ``_OUT_OF_PINCHES`` volumes in turn; after
+    ``handle_axes``, which may leave a corner up to ``pressed_pinch_depth`` in a volume pressed against a bone's.
+    Returns how many moves it made."""
+    vol = VolumeArrays(*arrays)
+    moves = 0
+    for i in range(x.shape[0]):
+        if inv_mass[i] == 0.0:
+            continue
+        for _ in range(_OUT_OF_PINCHES):
+            deepest, o = deepest_elsewhere(vol, -1, x[i, 0], x[i, 1], x[i, 2])
+            if deepest <= depth:
+                break
+            lx, ly, lz = to_local(vol.pos1, vol.rot1, o, x[i, 0], x[i, 1], x[i, 2])
+            _, sx, sy, sz, nx, ny, nz = static_projection(vol.kinds[o], vol.radii, vol.cuts, vol.planes, o, lx, ly, lz)
+            x[i, 0], x[i, 1], x[i, 2] = to_world(vol.pos1, vol.rot1, o, sx + eps * nx, sy + eps * ny, sz + eps * nz)
+            moves += 1
+    return moves

@@ -136,15 +136,23 @@ def handle_pair(vol, v, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ra
 def depth_elsewhere(vol, v, px, py, pz):
     """Depth (m) of the simulation-frame point p in the deepest volume other than v (end poses): what a move
     out of v costs in a pinch (``crossing``, ``kernels.handle_edges``)."""
+    return deepest_elsewhere(vol, v, px, py, pz)[0]
+
+
+@kernel
+def deepest_elsewhere(vol, v, px, py, pz):
+    """``(depth, o)``: ``depth_elsewhere`` and the volume o it is in (-1: none; v = -1: any volume)."""
     kinds, radii, cuts, bounding_radii = vol.kinds, vol.radii, vol.cuts, vol.bounding_radii
     pos, rot = vol.pos1, vol.rot1
-    deepest = 0.0
+    deepest, which = 0.0, -1
     for o in range(kinds.shape[0]):
         if o == v or (px - pos[o, 0]) ** 2 + (py - pos[o, 1]) ** 2 + (pz - pos[o, 2]) ** 2 > bounding_radii[o] ** 2:
             continue
         lx, ly, lz = to_local(pos, rot, o, px, py, pz)
-        deepest = max(deepest, penetration_depth(kinds[o], radii, cuts, vol.planes, o, lx, ly, lz))
-    return deepest
+        depth = penetration_depth(kinds[o], radii, cuts, vol.planes, o, lx, ly, lz)
+        if depth > deepest:
+            deepest, which = depth, o
+    return deepest, which
 
 
 @kernel

@@ -39,6 +39,9 @@ class VolumeArrays(NamedTuple):
     # (V, MAX_PLANES, 4) contact planes in the local frame, (unit normal out of the kept side, offset m): a point
     # p is beyond one where n . p > offset; used rows first, an offset of +inf ends them (``contact_planes``)
     planes: np.ndarray
+    # (V, V) m: how deep a corner of a triangle moved off volume v's bone may be put into volume o (row v,
+    # column o; ``crossing``): ``pinch_depth``, or ``pressed_pinch_depth`` for a pair that may be pressed together
+    pinch_depths: np.ndarray
 
     @classmethod
     def at_rest(cls, volumes: VolumeSet) -> VolumeArrays:
@@ -53,7 +56,7 @@ class VolumeArrays(NamedTuple):
                    np.ascontiguousarray(volumes.switch_radii, dtype=np.float64),
                    np.ascontiguousarray(volumes.bones, dtype=np.float64), boxes,
                    np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)), np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)),
-                   np.zeros(n), np.zeros(n), np.zeros(n), no_planes(n))
+                   np.zeros(n), np.zeros(n), np.zeros(n), no_planes(n), np.zeros((n, n)))
 
     def unbounded(self) -> VolumeArrays:
         """The same arrays (poses shared) with infinite bounding radii and boxes: every broad-phase test
