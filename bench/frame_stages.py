@@ -6,12 +6,14 @@ solver's step (``DressedCharacter.step`` without the quality figures), the quali
 (``DressedCharacter.measure``, and each meter inside it), the publish payload (normals and shaded colours,
 ``rerun_log.frame_payload``), the markers (``markers.frame_markers``) and their CDR bytes
 (``serialize_marker_array``). Rerun logging is left out (``garment-sim scale``'s ``rerun_ms``). Per stage the
-median wall time and the median CPU time of this thread (``time.thread_time``: with ``--threads 1`` all of the
-stage's work, which other processes on the machine do not inflate as they do the wall time).
+median wall time, the median CPU time of this thread (``time.thread_time``: with ``--threads 1`` all of the
+stage's work, which other processes on the machine do not inflate as they do the wall time) and of the process
+(``time.process_time``: all of numba's threads, with their waits for each other).
 
     PYTHONPATH=$PWD python bench/frame_stages.py [--points 20000] [--frames 10] [--threads 1]
 
-One JSON line: ms per stage (``wall_ms``, ``cpu_ms``), the shares of the CPU total, the load average.
+One JSON line: ms per stage (``wall_ms``, ``cpu_ms``, ``process_cpu_ms``), the shares of the CPU total, the
+load average.
 """
 
 from __future__ import annotations
@@ -48,7 +50,7 @@ def main() -> int:
                                resolution_for(args.points), motion=source.fit_poses())
     character.dress(source.pose(0.0), 0.0, source.motion(0.0))
     meter = character._meters[0]
-    samples = {stage: ([], []) for stage in STAGES}
+    samples = {stage: ([], [], []) for stage in STAGES}
     with benchmarking.call_timers(((quality, "free_point_depth"), (quality, "surface_depth"), (meter, "bones_through"),
                                    (meter.tubes, "rings_off"), (meter, "stretch_figures"))) as meters:
         for frame in range(1, args.warmup + args.frames + 1):
@@ -56,27 +58,28 @@ def main() -> int:
             pose, motion = source.pose(t), source.motion(t)
             if frame == args.warmup + 1:
                 meters.clear()
-            clocks = [(time.perf_counter(), time.thread_time())]
+            clocks = [(time.perf_counter(), time.thread_time(), time.process_time())]
             reports = character.step(pose, motion, t, measure=False)
-            clocks.append((time.perf_counter(), time.thread_time()))
+            clocks.append((time.perf_counter(), time.thread_time(), time.process_time()))
             character.measure(reports, pose)
-            clocks.append((time.perf_counter(), time.thread_time()))
+            clocks.append((time.perf_counter(), time.thread_time(), time.process_time()))
             payload = frame_payload(character, pose)
-            clocks.append((time.perf_counter(), time.thread_time()))
+            clocks.append((time.perf_counter(), time.thread_time(), time.process_time()))
             markers = frame_markers(payload, "garment", "world", seconds_to_stamp(t), with_volumes=True)
-            clocks.append((time.perf_counter(), time.thread_time()))
+            clocks.append((time.perf_counter(), time.thread_time(), time.process_time()))
             serialize_marker_array(markers)
-            clocks.append((time.perf_counter(), time.thread_time()))
+            clocks.append((time.perf_counter(), time.thread_time(), time.process_time()))
             if frame > args.warmup:
                 for k, stage in enumerate(STAGES):
                     samples[stage][0].append(clocks[k + 1][0] - clocks[k][0])
                     samples[stage][1].append(clocks[k + 1][1] - clocks[k][1])
-    wall = {stage: round(statistics.median(w) * 1e3, 3) for stage, (w, _) in samples.items()}
-    cpu = {stage: round(statistics.median(c) * 1e3, 3) for stage, (_, c) in samples.items()}
+                    samples[stage][2].append(clocks[k + 1][2] - clocks[k][2])
+    wall, cpu, process = ({stage: round(statistics.median(series[k]) * 1e3, 3) for stage, series in samples.items()}
+                          for k in range(3))
     total = sum(cpu.values())
     print(json.dumps({
         "bench": "frame_stages", "mass_points": character.solvers[0].model.num_points, "frames": args.frames,
-        "threads": threads, "wall_ms": wall, "cpu_ms": cpu, "cpu_total_ms": round(total, 3),
+        "threads": threads, "wall_ms": wall, "cpu_ms": cpu, "process_cpu_ms": process, "cpu_total_ms": round(total, 3),
         "cpu_share": {stage: round(value / total, 3) for stage, value in cpu.items()},
         "meters_cpu_ms": {name: round(c / args.frames * 1e3, 3) for name, (_, c, _) in meters.items()},
         "load_1min": benchmarking.load_average()}), flush=True)

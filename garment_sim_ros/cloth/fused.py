@@ -87,14 +87,22 @@ def advance_substeps(solver, frame, count: int, h: float, v0, a0, yaw_rate: floa
         fractions[k] = f0, f1
     constrained = skinned is not None
     skinned0, skinned1 = skinned if constrained else (_NO_POINTS, _NO_POINTS)
-    garment = (const.mass, const.inv_mass, model.springs, model.rest_lengths, const.stiffness, const.damping,
-               model.attached, model.tether_anchors, model.tether_lengths, solver._edges, solver._edge_rest,
-               solver._triangles)
+    layout = solver.parallel_layout()
+    if layout is None:  # the serial chain: the model's order, as if all of it were the first half
+        springs = (model.springs, model.rest_lengths, const.stiffness, const.damping, _first_half(len(model.springs)))
+        correction = (model.springs, model.rest_lengths, _first_half(solver._correct_count))
+        edges = (solver._edges, solver._edge_rest, _first_half(len(solver._edges)))
+    else:  # the parallel chain: in the halves' order (``GarmentSolver.parallel_layout``)
+        springs = (layout.springs, layout.rest, layout.stiffness, layout.damping, layout.spring_starts)
+        correction = (layout.correction_springs, layout.correction_rest, layout.correction_starts)
+        edges = (layout.edges, layout.edge_rest, layout.edge_starts)
+    garment = (const.mass, const.inv_mass, springs, correction, model.attached, model.tether_anchors,
+               model.tether_lengths, edges, solver._triangles)
     scratch = (solver._forces, solver._x_start, solver._x_collision, solver._x_kept, solver._v_kept,
                solver._v_scratch, solver._strain_inv_mass, solver._strain_stretches, collider._depths,
                collider._scratch, collider._corners, collider.axis_boxes(solver._triangles))
     settings = (float(h), float(yaw_acc), float(params.air_damping), float(params.angular_inertia_scale),
-                int(params.correction_iterations), int(solver._correct_count), float(params.limit_ratio),
+                int(params.correction_iterations), float(params.limit_ratio),
                 bool(params.tethers), 1.0 + float(params.tether_slack), constrained, float(params.max_distance),
                 int(params.strain_limit_iterations), float(params.contact_mobility),
                 1.0 + params.limit_ratio + params.strain_limit_tolerance, float(solver.STRAIN_LIMIT_UNDONE))
@@ -120,6 +128,37 @@ def advance_substeps(solver, frame, count: int, h: float, v0, a0, yaw_rate: floa
     report.collision_s += wall * ticks[COLLISION] / ticks[CALL]
 
 
+def _first_half(count: int) -> np.ndarray:
+    """The starts (4,) of ``cloth.halves``' groups with all ``count`` pairs in the first."""
+    return np.array([0, count, count, count], dtype=np.int64)
+
+
+@njit(cache=True)
+def _accumulate_in_order(x, v, mass, springs, rest, stiffness, damping, uniform, omega, yaw_acc, air_damping,
+                         frame_velocity, rotation_scale, forces, starts):
+    """The serial chain's forces: ``kernels.accumulate_forces`` (the springs in the model's order: ``starts``
+    unused); the parallel chain's is ``kernels.accumulate_forces_halves``, with the same arguments."""
+    kernels.accumulate_forces(x, v, mass, springs, rest, stiffness, damping, uniform, omega, yaw_acc, air_damping,
+                              frame_velocity, rotation_scale, forces)
+
+
+@njit(cache=True)
+def _correct_in_order(x, inv_mass, springs, rest, starts, limit_ratio):
+    """The serial chain's correction iteration: ``kernels.length_correction`` over the first ``starts[3]`` springs
+    in the model's order; the parallel chain's is ``kernels.length_correction_halves``, with the same arguments."""
+    return kernels.length_correction(x, inv_mass, springs, rest, starts[3], limit_ratio)
+
+
+@njit(cache=True)
+def _edges_in_order(arrays, xs, x, inv_mass, edges, edge_rest, starts, edge_pinch_depth):
+    """The serial chain's edge handling: ``handle_edges`` in the edges' order (``starts`` unused); the parallel
+    chain's is ``handle_edges_halves``, with the same arguments."""
+    return collision_kernels.handle_edges(arrays, xs, x, inv_mass, edges, edge_rest, edge_pinch_depth)
+
+
+_accumulate, _correct, _handle_edges = _accumulate_in_order, _correct_in_order, _edges_in_order
+
+
 @njit(cache=True)
 def run_substeps(x, v, contacts, garment, scratch, uniform, frame_velocity, omega, fractions, targets0, targets1,
                  skinned0, skinned1, arrays, frame_pos, frame_quat, pressing, press, settings, contact, ticks):
@@ -132,19 +171,18 @@ def run_substeps(x, v, contacts, garment, scratch, uniform, frame_velocity, omeg
     correction's, the collision's (with the volumes' poses per substep), the whole call's; the rest of the
     call is the integration's."""
     start = _cycles()
-    (mass, inv_mass, springs, rest, stiffness, damping, attached, tether_anchors, tether_lengths, edges, edge_rest,
-     triangles) = garment
+    mass, inv_mass, springs, correction, attached, tether_anchors, tether_lengths, edges, triangles = garment
     forces, x_start = scratch[0], scratch[1]
-    (h, yaw_acc, air_damping, rotation_scale, iterations, correct_count, limit_ratio, tethers, tether_scale,
-     constrained, max_distance, strain_iterations) = settings[:12]
+    (h, yaw_acc, air_damping, rotation_scale, iterations, limit_ratio, tethers, tether_scale, constrained,
+     max_distance, strain_iterations) = settings[:11]
     eps, friction, switch_ratio, mode, grip = contact[0], contact[1], contact[3], contact[4], contact[6]
     n_static = 0
     n_dynamic = 0
     pressed = 0.0
     for k in range(uniform.shape[0]):
         f0, f1 = fractions[k, 0], fractions[k, 1]
-        kernels.accumulate_forces(x, v, mass, springs, rest, stiffness, damping, uniform[k], omega[k], yaw_acc,
-                                  air_damping, frame_velocity[k], rotation_scale, forces)
+        _accumulate(x, v, mass, springs[0], springs[1], springs[2], springs[3], uniform[k], omega[k], yaw_acc,
+                    air_damping, frame_velocity[k], rotation_scale, forces, springs[4])
         if not math.isfinite(_sum(forces)):
             x[:] = math.nan  # the guard restores; collision handling would turn NaN into garbage
             break
@@ -158,7 +196,7 @@ def run_substeps(x, v, contacts, garment, scratch, uniform, frame_velocity, omeg
         ticks[COLLISION] += tac - tic
         for iteration in range(max(1, iterations)):
             if iteration < iterations:
-                kernels.length_correction(x, inv_mass, springs, rest, correct_count, limit_ratio)
+                _correct(x, inv_mass, correction[0], correction[1], correction[2], limit_ratio)
                 if tethers:
                     kernels.tether_constraints(x, inv_mass, tether_anchors, tether_lengths, tether_scale)
             if iteration == 0:
@@ -173,13 +211,13 @@ def run_substeps(x, v, contacts, garment, scratch, uniform, frame_velocity, omeg
         kernels.velocities_from_positions(x, x_start, h, v)
         tic = _cycles()
         scratch[2][:] = x
-        s, d = _resolve(arrays, x_start, x, v, inv_mass, h, contacts, edges, edge_rest, triangles, scratch, contact)
+        s, d = _resolve(arrays, x_start, x, v, inv_mass, h, contacts, edges, triangles, scratch, contact)
         n_static += s
         n_dynamic += d
         ticks[COLLISION] += _cycles() - tic
         if strain_iterations > 0:
-            s, d = _limit_strain(arrays, x_start, x, v, inv_mass, h, contacts, springs, rest, edges, edge_rest,
-                                 triangles, scratch, settings, contact, skinned0, skinned1, f1, ticks)
+            s, d = _limit_strain(arrays, x_start, x, v, inv_mass, h, contacts, correction, edges, triangles, scratch,
+                                 settings, contact, skinned0, skinned1, f1, ticks)
             n_static += s
             n_dynamic += d
     ticks[CALL] += _cycles() - start
@@ -203,17 +241,18 @@ def _points(arrays, xs, x, v, inv_mass, h, contacts, scratch, contact):
 
 
 @njit(cache=True)
-def _resolve(arrays, xs, x, v, inv_mass, h, contacts, edges, edge_rest, triangles, scratch, contact):
-    """``Collider.resolve_substep`` (same calls, same retry); (static hits, dynamic hits)."""
+def _resolve(arrays, xs, x, v, inv_mass, h, contacts, edges, triangles, scratch, contact):
+    """``Collider.resolve_substep`` (same calls, same retry); ``edges``: (edges, rest lengths, starts of the
+    halves); (static hits, dynamic hits)."""
     eps, friction, switch_ratio, mode, edge_pinch_depth, grip = (
         contact[0], contact[1], contact[3], contact[4], contact[5], contact[6])
     n_static, n_dynamic = _points(arrays, xs, x, v, inv_mass, h, contacts, scratch, contact)
     crossed = crossing.handle_axes(arrays, xs, x, v, inv_mass, h, triangles, eps, AXIS_PASSES, scratch[10],
                                    scratch[11])
-    if collision_kernels.handle_edges(arrays, xs, x, inv_mass, edges, edge_rest, edge_pinch_depth) or crossed:
+    if _handle_edges(arrays, xs, x, inv_mass, edges[0], edges[1], edges[2], edge_pinch_depth) or crossed:
         n_static += _handle_contacts(arrays, xs, x, v, inv_mass, h, eps, friction, grip, switch_ratio, mode,
                                      contacts)
-        collision_kernels.handle_edges(arrays, xs, x, inv_mass, edges, edge_rest, edge_pinch_depth)
+        _handle_edges(arrays, xs, x, inv_mass, edges[0], edges[1], edges[2], edge_pinch_depth)
         s, d = _points(arrays, xs, x, v, inv_mass, h, contacts, scratch, contact)
         n_static += s
         n_dynamic += d
@@ -223,14 +262,15 @@ def _resolve(arrays, xs, x, v, inv_mass, h, contacts, edges, edge_rest, triangle
 
 
 @njit(cache=True)
-def _limit_strain(arrays, xs, x, v, inv_mass, h, contacts, springs, rest, edges, edge_rest, triangles, scratch,
-                  settings, contact, skinned0, skinned1, f1, ticks):
-    """``GarmentSolver._limit_strain`` (same calls, same order, its stage split); (static hits, dynamic hits)."""
+def _limit_strain(arrays, xs, x, v, inv_mass, h, contacts, correction, edges, triangles, scratch, settings, contact,
+                  skinned0, skinned1, f1, ticks):
+    """``GarmentSolver._limit_strain`` (same calls, same order, its stage split); ``correction``: (springs, rest
+    lengths, starts of the halves); (static hits, dynamic hits)."""
     tic = _cycles()
     x_collision, x_kept, v_kept, v_scratch, strain_inv_mass, stretches, depths = scratch[2:9]
-    correct_count, limit_ratio, constrained, max_distance, strain_iterations = (settings[5], settings[6], settings[9],
-                                                                                settings[10], settings[11])
-    mobility, converged, undone = settings[12], settings[13], settings[14]
+    limit_ratio, constrained, max_distance, strain_iterations = settings[5], settings[8], settings[9], settings[10]
+    springs, rest, starts = correction
+    mobility, converged, undone = settings[11], settings[12], settings[13]
     eps, friction, switch_ratio, mode, grip = contact[0], contact[1], contact[3], contact[4], contact[6]
     kernels.contact_weights(x, x_collision, inv_mass, mobility, strain_inv_mass)
     x_kept[:] = x
@@ -239,7 +279,7 @@ def _limit_strain(arrays, xs, x, v, inv_mass, h, contacts, springs, rest, edges,
     tac = _cycles()
     n_static = 0
     for _ in range(strain_iterations):
-        if kernels.length_correction(x, strain_inv_mass, springs, rest, correct_count, limit_ratio) <= converged:
+        if _correct(x, strain_inv_mass, springs, rest, starts, limit_ratio) <= converged:
             break
         n_static += _handle_contacts(arrays, xs, x, v_scratch, inv_mass, h, eps, friction, grip, switch_ratio,
                                       mode, contacts)
@@ -249,7 +289,7 @@ def _limit_strain(arrays, xs, x, v, inv_mass, h, contacts, springs, rest, edges,
         for c in range(3):
             v[i, c] += (x[i, c] - x_kept[i, c]) / h
     toc = _cycles()
-    s, n_dynamic = _resolve(arrays, xs, x, v, inv_mass, h, contacts, edges, edge_rest, triangles, scratch, contact)
+    s, n_dynamic = _resolve(arrays, xs, x, v, inv_mass, h, contacts, edges, triangles, scratch, contact)
     collision_kernels.penetration_depths(arrays, x, depths)
     kernels.keep_where_inside(x, v, x_kept, v_kept, depths)
     if kernels.spring_stretches(x, springs, rest, stretches) > max(worst_kept, undone):
@@ -267,6 +307,9 @@ def _parallel_chain():
     namespace = dict(globals())
     namespace["_handle_all"] = collision_kernels.handle_all_parallel
     namespace["_handle_contacts"] = collision_kernels.handle_contacts_parallel
+    namespace["_accumulate"] = kernels.accumulate_forces_halves
+    namespace["_handle_edges"] = collision_kernels.handle_edges_halves
+    namespace["_correct"] = kernels.length_correction_halves
     for name in ("_points", "_resolve", "_limit_strain", "run_substeps"):
         namespace[name] = parallel_twin(globals()[name].py_func, namespace)
     return namespace["run_substeps"]

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from .. import quat_kernels as quat
 
@@ -26,23 +26,52 @@ def accumulate_forces(x, v, mass, springs, rest, stiffness, damping, uniform_acc
       + springs with damping along the spring.
     ``frame_velocity`` is the root's scaled velocity minus the wind, both in the root frame.
     """
-    n = x.shape[0]
-    for i in range(n):
-        m = mass[i]
-        rx, ry = x[i, 0], x[i, 1]  # the rotation is about z: r_z plays no part
-        vx, vy, vz = v[i, 0], v[i, 1], v[i, 2]
-        # omega = (0, 0, w): omega x r = (-w ry, w rx, 0); omega x (omega x r) = (-w^2 rx, -w^2 ry, 0)
-        w = omega_z
-        fict_x = alpha_z * -ry - w * w * rx + 2.0 * (-w * vy)
-        fict_y = alpha_z * rx - w * w * ry + 2.0 * (w * vx)
-        spin_x = -w * ry
-        spin_y = w * rx
-        forces[i, 0] = m * (uniform_accel[0] - rotation_scale * fict_x
-                            - drag_rate * (vx + frame_velocity[0] + rotation_scale * spin_x))
-        forces[i, 1] = m * (uniform_accel[1] - rotation_scale * fict_y
-                            - drag_rate * (vy + frame_velocity[1] + rotation_scale * spin_y))
-        forces[i, 2] = m * (uniform_accel[2] - drag_rate * (vz + frame_velocity[2]))
-    for s in range(springs.shape[0]):
+    for i in range(x.shape[0]):
+        forces[i, 0], forces[i, 1], forces[i, 2] = _frame_force(x, v, mass, i, uniform_accel, omega_z, alpha_z,
+                                                                drag_rate, frame_velocity, rotation_scale)
+    _add_spring_forces(x, v, springs, rest, stiffness, damping, 0, springs.shape[0], forces)
+
+
+@njit(cache=True, parallel=True)
+def accumulate_forces_halves(x, v, mass, springs, rest, stiffness, damping, uniform_accel, omega_z, alpha_z,
+                             drag_rate, frame_velocity, rotation_scale, forces, starts):
+    """``accumulate_forces`` on two threads: the points' own forces over the threads, then the springs of each
+    half of the garment on its own thread and those across the cut after them (the springs, their rest lengths,
+    stiffnesses and dampings in ``cloth.halves``' order, ``starts`` (4,) its groups'). The same forces up to the
+    order of the sums at the points near the cut; the same on any number of threads."""
+    for i in prange(x.shape[0]):
+        forces[i, 0], forces[i, 1], forces[i, 2] = _frame_force(x, v, mass, i, uniform_accel, omega_z, alpha_z,
+                                                                drag_rate, frame_velocity, rotation_scale)
+    for half in prange(2):
+        _add_spring_forces(x, v, springs, rest, stiffness, damping, starts[half], starts[half + 1], forces)
+    _add_spring_forces(x, v, springs, rest, stiffness, damping, starts[2], starts[3], forces)
+
+
+@njit(cache=True, inline="always")
+def _frame_force(x, v, mass, i, uniform_accel, omega_z, alpha_z, drag_rate, frame_velocity, rotation_scale):
+    """Point i's force from the moving frame and the air (``accumulate_forces``' first three terms)."""
+    m = mass[i]
+    rx, ry = x[i, 0], x[i, 1]  # the rotation is about z: r_z plays no part
+    vx, vy, vz = v[i, 0], v[i, 1], v[i, 2]
+    # omega = (0, 0, w): omega x r = (-w ry, w rx, 0); omega x (omega x r) = (-w^2 rx, -w^2 ry, 0)
+    w = omega_z
+    fict_x = alpha_z * -ry - w * w * rx + 2.0 * (-w * vy)
+    fict_y = alpha_z * rx - w * w * ry + 2.0 * (w * vx)
+    spin_x = -w * ry
+    spin_y = w * rx
+    return (m * (uniform_accel[0] - rotation_scale * fict_x
+                 - drag_rate * (vx + frame_velocity[0] + rotation_scale * spin_x)),
+            m * (uniform_accel[1] - rotation_scale * fict_y
+                 - drag_rate * (vy + frame_velocity[1] + rotation_scale * spin_y)),
+            m * (uniform_accel[2] - drag_rate * (vz + frame_velocity[2])))
+
+
+@njit(cache=True)
+def _add_spring_forces(x, v, springs, rest, stiffness, damping, start, end, forces):
+    """The forces of the springs ``start:end``, with damping along each, added to their first ends and taken
+    from their second."""
+    for k in range(start, end):
+        s = np.uint64(k)  # unsigned: no test for a negative index (a run from a start not known >= 0: 10 % dearer)
         a = springs[s, 0]
         b = springs[s, 1]
         dx = x[b, 0] - x[a, 0]
@@ -82,8 +111,28 @@ def length_correction(x, inv_mass, springs, rest, count, limit_ratio):
     """One Provot iteration over the first ``count`` springs: shorten every spring longer than
     ``(1 + limit_ratio) * rest`` back to that length, moving both ends by their inverse masses.
     Returns the largest length / rest length it met, before shortening (0 for no springs)."""
+    return _correct_run(x, inv_mass, springs, rest, 0, count, limit_ratio)
+
+
+@njit(cache=True, parallel=True)
+def length_correction_halves(x, inv_mass, springs, rest, starts, limit_ratio):
+    """``length_correction`` on two threads: each half of the garment's springs on its own thread, in the model's
+    order, then those across the cut (the springs and their rest lengths in ``cloth.halves``' order, ``starts``
+    (4,) its groups'). The same on any number of threads. Returns the largest length / rest length it met,
+    before shortening (0 for no springs)."""
+    worst = np.zeros(3)  # per group (numba's reductions do not reach into the runs)
+    for half in prange(2):
+        worst[half] = _correct_run(x, inv_mass, springs, rest, starts[half], starts[half + 1], limit_ratio)
+    worst[2] = _correct_run(x, inv_mass, springs, rest, starts[2], starts[3], limit_ratio)
+    return worst.max()
+
+
+@njit(cache=True)
+def _correct_run(x, inv_mass, springs, rest, start, end, limit_ratio):
+    """``length_correction`` of the springs ``start:end``; the largest length / rest length it met."""
     worst = 0.0
-    for s in range(count):
+    for k in range(start, end):
+        s = np.uint64(k)  # unsigned: no test for a negative index (a run from a start not known >= 0: 10 % dearer)
         a = springs[s, 0]
         b = springs[s, 1]
         dx, dy, dz, length = _spring_vector(x, a, b)

@@ -52,6 +52,7 @@ from ..params import DEFAULT_PARAMS, SolverParams
 from ..transforms import quat_conjugate, quat_multiply, transform_points, yaw_quat
 from . import fused, kernels
 from .frame import ClothState, FrameInput, FrameReport
+from .halves import ParallelLayout
 from .model import BEND, SHEAR, STRUCTURAL, ClothModel
 from .motion_constraints import SkinBinding, limit_distance
 
@@ -184,6 +185,7 @@ class GarmentSolver:
         self._edge_rest = np.ascontiguousarray(model.rest_lengths[model.spring_kinds == STRUCTURAL])
         self._triangles = np.ascontiguousarray(model.triangles, dtype=np.int64)
         self.collider = None
+        self._layout: ParallelLayout | None = None  # ``parallel_layout``, built on first use
         self.use_fused = True  # the fused frame (``cloth.fused``) where the configuration allows; off: the loop below
         self.skin: SkinBinding | None = None  # bound by ``reset`` (motion constraints, ``max_distance``)
         if volumes is not None and len(volumes):
@@ -196,6 +198,7 @@ class GarmentSolver:
     def set_params(self, params: SolverParams) -> None:
         self.params = params
         self.constants = derive_constants(self.model, params)
+        self._layout = None  # its stiffnesses and dampings are the old ones
         if self.collider is not None:
             self.collider.set_params(params)
 
@@ -294,6 +297,32 @@ class GarmentSolver:
         return transform_points(np.asarray(root_position, float), yaw_quat(root_yaw), self.state.positions)
 
     # -- the frame ---------------------------------------------------------------------------
+    def parallel_layout(self) -> ParallelLayout | None:
+        """The springs and edges cut in two halves (``cloth.halves``) when the collider spreads the points over
+        numba's threads (``Collider.parallel``: from ``PARALLEL_MIN_POINTS`` up) and the garment hangs from
+        attached points, built on first use; None when it runs serial. The forces, the length correction and the
+        edge handling then run on two threads too, on the reference path and the fused one alike. A garment
+        with no attached point (the drape's free sheet) stays serial: each half of a hanging garment runs from
+        its attachments down, but a free sheet's cut lags where it lies on the body, and the drape's worst
+        stretch rose from 1.097 to 1.156 (docs/benchmarks.md)."""
+        if self.collider is None or not self.collider.parallel or len(self.model.attached) == 0:
+            return None
+        if self._layout is None:
+            model, const = self.model, self.constants
+            self._layout = ParallelLayout.build(model.rest_positions, model.springs, model.rest_lengths,
+                                                const.stiffness, const.damping, self._correct_count, self._edges,
+                                                self._edge_rest)
+        return self._layout
+
+    def _length_correction(self, x: np.ndarray, inv_mass: np.ndarray, layout: ParallelLayout | None) -> float:
+        """One correction iteration (``kernels.length_correction``; in halves on two threads with a ``layout``);
+        the largest length / rest length it met."""
+        if layout is None:
+            return kernels.length_correction(x, inv_mass, self.model.springs, self.model.rest_lengths,
+                                             self._correct_count, self.params.limit_ratio)
+        return kernels.length_correction_halves(x, inv_mass, layout.correction_springs, layout.correction_rest,
+                                                layout.correction_starts, self.params.limit_ratio)
+
     def advance(self, frame: FrameInput) -> FrameReport:
         params, const, model, state = self.params, self.constants, self.model, self.state
         dt = float(frame.t1 - frame.t0)
@@ -336,6 +365,7 @@ class GarmentSolver:
         if constrained:
             skinned0, skinned1 = self.skin.positions(*poses0), self.skin.positions(*poses1)
         x, v = state.positions, state.velocities
+        layout = self.parallel_layout()
         clock = time.perf_counter
         run_fused = self.use_fused and fused.usable(self)
         if run_fused:  # the same substeps in one compiled call (``cloth.fused``)
@@ -348,10 +378,14 @@ class GarmentSolver:
             uniform, frame_velocity = relative_frame_forces(
                 params, frame.root_yaw0 + yaw_step * 0.5 * (f0 + f1), v0 + a0 * mid, a0,
                 wind_velocity(params, frame.t0 + mid))
-            kernels.accumulate_forces(
-                x, v, const.mass, model.springs, model.rest_lengths, const.stiffness, const.damping,
-                uniform, yaw_rate + yaw_acc * mid, yaw_acc, params.air_damping, frame_velocity,
-                params.angular_inertia_scale, self._forces)
+            frame_args = (uniform, yaw_rate + yaw_acc * mid, yaw_acc, params.air_damping, frame_velocity,
+                          params.angular_inertia_scale, self._forces)
+            if layout is None:
+                kernels.accumulate_forces(x, v, const.mass, model.springs, model.rest_lengths, const.stiffness,
+                                          const.damping, *frame_args)
+            else:
+                kernels.accumulate_forces_halves(x, v, const.mass, layout.springs, layout.rest, layout.stiffness,
+                                                 layout.damping, *frame_args, layout.spring_starts)
             if not math.isfinite(float(np.sum(self._forces))):
                 x[...] = math.nan  # the guard restores; collision handling would turn NaN into garbage
                 break
@@ -364,8 +398,7 @@ class GarmentSolver:
             for iteration in range(max(1, params.correction_iterations)):
                 if iteration < params.correction_iterations:
                     tic = clock()
-                    kernels.length_correction(x, const.inv_mass, model.springs, model.rest_lengths,
-                                              self._correct_count, params.limit_ratio)
+                    self._length_correction(x, const.inv_mass, layout)
                     if params.tethers:
                         kernels.tether_constraints(x, const.inv_mass, model.tether_anchors, model.tether_lengths,
                                                    1.0 + params.tether_slack)
@@ -382,10 +415,10 @@ class GarmentSolver:
             report.integration_s += tac - tic
             if collider is not None:
                 self._x_collision[...] = x
-                self._collide(x, v, h)
+                self._collide(x, v, h, layout)
                 report.collision_s += clock() - tac
                 if params.strain_limit_iterations > 0:
-                    self._limit_strain(x, v, h, report, (skinned0, skinned1, f1) if constrained else None)
+                    self._limit_strain(x, v, h, report, (skinned0, skinned1, f1) if constrained else None, layout)
         if collider is not None:
             report.static_hits = collider.static_hits
             report.dynamic_hits = collider.dynamic_hits
@@ -395,10 +428,13 @@ class GarmentSolver:
         self.state.time = frame.t1
         return report
 
-    def _collide(self, x: np.ndarray, v: np.ndarray, h: float) -> None:
-        """Full collision handling of a substep's end (``Collider.resolve_substep``)."""
+    def _collide(self, x: np.ndarray, v: np.ndarray, h: float, layout: ParallelLayout | None) -> None:
+        """Full collision handling of a substep's end (``Collider.resolve_substep``; the edges in halves on two
+        threads with a ``layout``)."""
+        edges = (self._edges, self._edge_rest, None) if layout is None else (layout.edges, layout.edge_rest,
+                                                                             layout.edge_starts)
         self.collider.resolve_substep(self._x_start, x, v, self.constants.inv_mass, h, self.state.contacts,
-                                      self._edges, self._edge_rest, self._triangles)
+                                      edges[0], edges[1], self._triangles, edge_halves=edges[2])
 
     def _measure_stretch(self, report: FrameReport) -> None:
         """``self.stretches`` and ``report.max_stretch`` for the garment as it is now."""
@@ -406,7 +442,7 @@ class GarmentSolver:
                                                       self.model.rest_lengths, self.stretches)
 
     def _limit_strain(self, x: np.ndarray, v: np.ndarray, h: float, report: FrameReport,
-                      constraint: tuple[np.ndarray, np.ndarray, float] | None) -> None:
+                      constraint: tuple[np.ndarray, np.ndarray, float] | None, layout: ParallelLayout | None) -> None:
         """Strain limiting after the collision handling, contacts respected (see the module docstring);
         ``constraint``, the motion constraints' skinned positions at the substep's ends and its end's
         fraction of the frame, when ``max_distance`` is on: the limiting keeps within it too."""
@@ -420,8 +456,7 @@ class GarmentSolver:
         tac = clock()
         converged = 1.0 + params.limit_ratio + params.strain_limit_tolerance
         for _ in range(params.strain_limit_iterations):
-            if kernels.length_correction(x, self._strain_inv_mass, model.springs, model.rest_lengths,
-                                         self._correct_count, params.limit_ratio) <= converged:
+            if self._length_correction(x, self._strain_inv_mass, layout) <= converged:
                 break
             # the contacts as constraints of the same projection: what the correction pulled into a volume goes
             # back out before the next sweep (its velocity response is not wanted: ``v += dx / h`` below)
@@ -430,7 +465,7 @@ class GarmentSolver:
             limit_distance(x, *constraint, params.max_distance, const.inv_mass)
         v += (x - self._x_kept) / h
         toc = clock()
-        self._collide(x, v, h)  # the limiting shortens springs wrapped round a limb straight through it
+        self._collide(x, v, h, layout)  # the limiting shortens springs wrapped round a limb straight through it
         kernels.keep_where_inside(x, v, self._x_kept, self._v_kept, collider.penetration_depths(x))
         if kernels.spring_stretches(x, model.springs, model.rest_lengths, self._strain_stretches) > max(
                 worst_kept, self.STRAIN_LIMIT_UNDONE):

@@ -146,7 +146,8 @@ class Collider:
     # ------------------------------------------------------------------ handling
     # Each public call checks its arguments, then runs its kernel (``_points``, ``_contacts``, ``_edges``,
     # ``_axes``); ``resolve_substep`` checks once for its up to nine kernel calls.
-    def resolve_substep(self, x_start, x, v, inv_mass, h: float, contacts, edges, edge_rest, triangles) -> None:
+    def resolve_substep(self, x_start, x, v, inv_mass, h: float, contacts, edges, edge_rest, triangles,
+                        edge_halves=None) -> None:
         """Full collision handling of a substep's end (memo §3 step 5, and beyond it edges and bones),
         with its retry policy: every point against every volume; then triangles a limb bone passes
         through go back to their side of it and edges a limb cuts into go back out; if either moved
@@ -157,16 +158,18 @@ class Collider:
         last: a corner the bones' handling put up to ``pressed_pinch_depth`` into a volume pressed
         against the bone's (a hand on the hip, its wrist against the thigh: cmu_131) goes out of it.
         Points (N, 3) m, velocities m/s, ``h`` s; ``contacts`` as ``new_contacts`` makes it; ``edges``
-        (E, 2) with ``edge_rest`` (E,) m; ``triangles`` (T, 3)."""
+        (E, 2) with ``edge_rest`` (E,) m; ``triangles`` (T, 3); ``edge_halves``: where the halves start (4,)
+        when the edges are in ``cloth.halves``' order, each half then handled on its own thread; None: in their
+        order on one."""
         self._check_points(x_start, x, v, inv_mass, h, contacts)
         edges, edge_rest = self._check_edges(edges, edge_rest)
         self._check_triangles(triangles)
         h = float(h)
         self._points(x_start, x, v, inv_mass, h, contacts)
         crossed = self._axes(x_start, x, v, inv_mass, h, triangles)
-        if self._edges(x_start, x, inv_mass, edges, edge_rest) or crossed:
+        if self._edges(x_start, x, inv_mass, edges, edge_rest, edge_halves) or crossed:
             self._contacts(x_start, x, v, inv_mass, h, contacts, self._mode)
-            self._edges(x_start, x, inv_mass, edges, edge_rest)
+            self._edges(x_start, x, inv_mass, edges, edge_rest, edge_halves)
             self._points(x_start, x, v, inv_mass, h, contacts)
             if self._axes(x_start, x, v, inv_mass, h, triangles):
                 crossing.out_of_pinches(self._packed, x, inv_mass, self._eps, self._pinch_depth)
@@ -222,9 +225,12 @@ class Collider:
         self.static_hits += int(kernel(self._packed, x_start, x, v, inv_mass, h, self._eps, self._friction,
                                        self._grip, self._switch_ratio, mode, contacts))
 
-    def _edges(self, x_start, x, inv_mass, edges, rest_lengths) -> int:
-        return int(kernels.handle_edges(self._packed, x_start, x, inv_mass, edges, rest_lengths,
-                                        self._edge_pinch_depth))
+    def _edges(self, x_start, x, inv_mass, edges, rest_lengths, halves=None) -> int:
+        if halves is None:
+            return int(kernels.handle_edges(self._packed, x_start, x, inv_mass, edges, rest_lengths,
+                                            self._edge_pinch_depth))
+        return int(kernels.handle_edges_halves(self._packed, x_start, x, inv_mass, edges, rest_lengths, halves,
+                                               self._edge_pinch_depth))
 
     def _axes(self, x_start, x, v, inv_mass, h: float, triangles) -> int:
         return int(crossing.handle_axes(self._packed, x_start, x, v, inv_mass, h, triangles, self._eps, AXIS_PASSES,

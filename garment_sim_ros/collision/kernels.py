@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 import types
 
+import numpy as np
 from numba import njit, prange
 
 from .broad_phase import (
@@ -295,12 +296,32 @@ def handle_edges(arrays, xs, x, inv_mass, edges, rest_lengths, edge_pinch_depth)
     10-19 cm a substep, past the guard's stretch. Off by default: the thigh then leaves the trousers'
     leg through the edges left (README, "Real motion"). Returns the number of edges moved.
     """
+    return _handle_edge_run(arrays, xs, x, inv_mass, edges, rest_lengths, 0, edges.shape[0], edge_pinch_depth)
+
+
+@njit(cache=True, parallel=True)
+def handle_edges_halves(arrays, xs, x, inv_mass, edges, rest_lengths, starts, edge_pinch_depth):
+    """``handle_edges`` on two threads: each half of the garment's edges on its own thread, in their order, then
+    those across the cut (the edges and their rest lengths in ``cloth.halves``' order, ``starts`` (4,) its
+    groups'); the same on any number of threads."""
+    moved = np.zeros(3, dtype=np.int64)  # per group (numba's reductions do not reach into the runs)
+    for half in prange(2):
+        moved[half] = _handle_edge_run(arrays, xs, x, inv_mass, edges, rest_lengths, starts[half], starts[half + 1],
+                                       edge_pinch_depth)
+    moved[2] = _handle_edge_run(arrays, xs, x, inv_mass, edges, rest_lengths, starts[2], starts[3], edge_pinch_depth)
+    return moved.sum()
+
+
+@kernel
+def _handle_edge_run(arrays, xs, x, inv_mass, edges, rest_lengths, start, end, edge_pinch_depth):
+    """``handle_edges`` of the edges ``start:end``; how many moves."""
     vol = VolumeArrays(*arrays)
     kinds, radii, cuts, planes = vol.kinds, vol.radii, vol.cuts, vol.planes
     bounding_radii, boxes = vol.bounding_radii, vol.boxes
     pos0, rot0, pos, rot = vol.pos0, vol.rot0, vol.pos1, vol.rot1
     n_moved = 0
-    for e in range(edges.shape[0]):
+    for k in range(start, end):
+        e = np.uint64(k)  # unsigned: no test for a negative index (a run from a start not known >= 0: dearer)
         a = edges[e, 0]
         b = edges[e, 1]
         if inv_mass[a] == 0.0 and inv_mass[b] == 0.0:
