@@ -183,9 +183,8 @@ def test_a_hem_under_a_lifted_foot_is_not_held_past_the_ankle():
     foot volume, came down into the hem from inside the skirt, and the rule for a limb's end poking into the cloth
     (``crossing._entered_end``) put the hem's triangles back past the end, along the bone, every substep after,
     as the foot lifted: three hem points held 3 mm past the ankle end, their springs pulled to 3.3 x their rest
-    length, the frame's structural p99 1.05 -> 1.13 over 2.2-2.4 s. Now a triangle goes past the end only where
-    the end came into it (its move into the cloth along the bone larger than the cloth's towards it); the cloth
-    pulled onto a lifting foot goes across the bone as at any other crossing."""
+    length, the frame's structural p99 1.05 -> 1.13 over 2.2-2.4 s. The rule now holds at a wrist only (the
+    foot goes on from the ankle at an angle): the hem goes across the shin's bone as at any other crossing."""
     row = evaluate_run(Run(str(DATA / "cc_cmu_06_14_basketball_crossover_shoot.bvh"), "long_skirt", 1.0, 60.0, 2.4))
     assert row["frames"] == 144
     assert row["structural_stretch_p99"] <= 1.05 and row["shear_stretch_p99"] <= 1.05

@@ -275,16 +275,15 @@ def _room(vol, v, lx, ly, lz, ux, uy, uz, length):
 
 
 @kernel
-def _entered_end(vol, v, triangles, t, u, w, xs, x):
+def _entered_end(vol, v, triangles, t, u, w, xs):
     """Whether volume v's bone reached triangle t, crossed at barycentric (u, w), past its far end: the crossed
-    point lay beyond that end along the bone at the substep's start, the end is where the limb ends, inside
-    no other volume (a wrist, an ankle with no foot; an elbow is inside the forearm's volume, a knee inside the
-    shin's; its near end is always at the trunk or the limb above, ``body.fitting``), and the end came into the
-    cloth: it moved further into it along the bone than the crossed point moved towards it. Cloth pulled onto an
-    end that stays or withdraws is not pushed ahead of it (CC basketball, long skirt, 1x 60 fps: the hem under
-    the lifting right foot held 3 mm past the ankle end, its springs at 3.3 x their rest length)."""
+    point lay beyond that end along the bone at the substep's start, and the end is a wrist (``pushes_ahead``)
+    inside no other volume. Its near end is always at the trunk or the limb above (``body.fitting``). Not an
+    ankle: there the foot goes on at an angle, and a hem the foot came down on was held past the ankle end as
+    the foot lifted (CC basketball, long skirt, 1x 60 fps: three hem points 3-4 mm past it for 50 frames, their
+    springs 3.3x their rest length)."""
     a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-    if _crossed_at_start(vol, v, xs, a, b, c):
+    if not vol.pushes_ahead[v] or _crossed_at_start(vol, v, xs, a, b, c):
         return False
     wa = 1.0 - u - w
     lz = to_local(vol.pos0, vol.rot0, v, wa * xs[a, 0] + u * xs[b, 0] + w * xs[c, 0],
@@ -292,15 +291,7 @@ def _entered_end(vol, v, triangles, t, u, w, xs, x):
     if lz <= vol.bones[v, 1]:
         return False
     ex, ey, ez = to_world(vol.pos1, vol.rot1, v, 0.0, 0.0, vol.bones[v, 1])
-    if depth_elsewhere(vol, v, ex, ey, ez) != 0.0:
-        return False
-    sx, sy, sz = to_world(vol.pos0, vol.rot0, v, 0.0, 0.0, vol.bones[v, 1])
-    nx, ny, nz = rotate(vol.rot1, v, 0.0, 0.0, 1.0)
-    end_advance = (ex - sx) * nx + (ey - sy) * ny + (ez - sz) * nz
-    cloth_approach = 0.0  # the crossed point's move towards the end, against the bone's outward direction
-    for k, weight in ((a, wa), (b, u), (c, w)):
-        cloth_approach -= weight * ((x[k, 0] - xs[k, 0]) * nx + (x[k, 1] - xs[k, 1]) * ny + (x[k, 2] - xs[k, 2]) * nz)
-    return end_advance > cloth_approach
+    return depth_elsewhere(vol, v, ex, ey, ez) == 0.0
 
 
 @kernel
@@ -386,7 +377,7 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
             return False  # its attached corners straddle the bone: no move of the free ones clears it
         if not _destinations(vol, v, ux, uy, False, eps, corners):
             return False
-    elif _entered_end(vol, v, triangles, t, u, w, xs, x) and _destinations(vol, v, 0.0, 0.0, True, eps, corners):
+    elif _entered_end(vol, v, triangles, t, u, w, xs) and _destinations(vol, v, 0.0, 0.0, True, eps, corners):
         uz = 1.0
     else:
         _load_corners(vol, v, x, triangles, t, corners)
