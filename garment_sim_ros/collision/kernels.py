@@ -44,7 +44,7 @@ from .geometry import (
     static_projection,
     to_local,
 )
-from .response import MODE_STATIC, NO_HIT, STATIC_HIT, depth_elsewhere, handle_pair
+from .response import MODE_STATIC, NO_HIT, STATIC_HIT, depth_elsewhere, handle_local_pair, handle_pair
 from .volume_arrays import VolumeArrays
 from .volumes import CAPSULE, SPHERE
 
@@ -92,7 +92,8 @@ def substep_poses(arrays, frame_pos, frame_quat, f0, f1, pressing, clearance, ga
 @kernel
 def _next_candidate(vol, xs, x, i, cache, start):
     """The first uncached volume ``v >= start`` that point i may hit (within its reach, then its local box
-    meets the segment p0' -> p1); the volume count if none. Most pairs end here, in a few dozen flops."""
+    meets the segment p0' -> p1), with p0' and p1 in its frame (``handle_local_pair``'s ``a``, ``b``): ``(v,
+    ax, ay, az, bx, by, bz)``; v is the volume count if none. Most pairs end here, in a few dozen flops."""
     n_volumes = vol.kinds.shape[0]
     for v in range(start, n_volumes):
         cached = False
@@ -103,18 +104,21 @@ def _next_candidate(vol, xs, x, i, cache, start):
         bx, by, bz = to_local(vol.pos1, vol.rot1, v, x[i, 0], x[i, 1], x[i, 2])
         ax, ay, az = to_local(vol.pos0, vol.rot0, v, xs[i, 0], xs[i, 1], xs[i, 2])
         if not segment_misses_box(vol.boxes, v, ax, ay, az, bx, by, bz):
-            return v
-    return n_volumes
+            return v, ax, ay, az, bx, by, bz
+    return n_volumes, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+
+
+# ``_handle_point_all``'s ``first`` for a point with cached volumes: its scan comes after them, from where they put it
+_AFTER_CACHE = (-1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
 @kernel
-def _needs_handling(vol, xs, x, i, cache):
-    """Whether point i has a cached volume or may hit another one; if not, ``_handle_point_all`` would
-    change nothing. Checked first, in a loop without the handling's code, as most points are clear."""
+def _has_cached(cache, i):
+    """Whether point i's contact cache holds a volume."""
     for c in range(cache.shape[1]):
         if cache[i, c] >= 0:
             return True
-    return _next_candidate(vol, xs, x, i, cache, 0) < vol.kinds.shape[0]
+    return False
 
 
 @kernel
@@ -139,11 +143,13 @@ def _record(scratch, i, start, count, capacity, v):
 
 @kernel
 def _handle_point_all(vol, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, mode, margin, cache,
-                      scratch):
+                      scratch, first):
     """Point i against every volume, cached volumes first (temporal coherence), then rebuilds
     its cache row: this call's hits first, then the older entries the point is still near
     (the broad phase evicts the others). ``scratch[i]`` (length 2 C) holds the hits in its
-    first half and the kept entries in its second. Returns (static hits, dynamic hits)."""
+    first half and the kept entries in its second. ``first``: for a point with an empty cache,
+    the caller's ``_next_candidate(..., 0)`` (its scan is not repeated); else ``_AFTER_CACHE``. Returns (static
+    hits, dynamic hits)."""
     n_volumes = vol.kinds.shape[0]
     cache_size = cache.shape[1]
     n_static = 0
@@ -168,9 +174,10 @@ def _handle_point_all(vol, xs, x, vel, i, h, eps, friction, grip, c_time, switch
         else:
             n_dynamic += 1
         n_hits = _record(scratch, i, 0, n_hits, cache_size, v)
-    v = _next_candidate(vol, xs, x, i, cache, 0)
+    v, ax, ay, az, bx, by, bz = first if first[0] >= 0 else _next_candidate(vol, xs, x, i, cache, 0)
     while v < n_volumes:
-        code = handle_pair(vol, v, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, mode)[0]
+        code = handle_local_pair(vol, v, x, vel, i, ax, ay, az, bx, by, bz, h, eps, friction, grip, c_time,
+                                 switch_ratio, mode)[0]
         if code != NO_HIT:
             if code == STATIC_HIT:
                 n_static += 1
@@ -178,7 +185,7 @@ def _handle_point_all(vol, xs, x, vel, i, h, eps, friction, grip, c_time, switch
                 n_dynamic += 1
             n_hits = _record(scratch, i, 0, n_hits, cache_size, v)
         # from the point's current position: a hit has moved it
-        v = _next_candidate(vol, xs, x, i, cache, v + 1)
+        v, ax, ay, az, bx, by, bz = _next_candidate(vol, xs, x, i, cache, v + 1)
     # Volumes overlap at the joints: being pushed out of one can push a point into its
     # neighbour (the crotch between pelvis and thigh). A few static passes settle it.
     for _ in range(_SETTLE_PASSES if n_static + n_dynamic > 0 else 0):
@@ -220,12 +227,19 @@ def _handle_all(arrays, xs, x, vel, inv_mass, h, eps, friction, grip, c_time, sw
     reach_radii(vol, xs, x, inv_mass)
     n_static = 0
     n_dynamic = 0
+    n_volumes = vol.kinds.shape[0]
     for i in prange(x.shape[0]):  # the points are independent here: each touches its own rows only
-        if inv_mass[i] != 0.0 and _needs_handling(vol, xs, x, i, cache):
-            s, d = _handle_point_all(vol, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, mode, margin,
-                                     cache, scratch)
-            n_static += s
-            n_dynamic += d
+        if inv_mass[i] == 0.0:
+            continue
+        # Most points have no cached volume and none within reach: one scan, in a loop without the handling's
+        # code, finds that, and its first candidate is where the handling goes on.
+        first = _AFTER_CACHE if _has_cached(cache, i) else _next_candidate(vol, xs, x, i, cache, 0)
+        if first[0] == n_volumes:
+            continue
+        s, d = _handle_point_all(vol, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, mode, margin, cache,
+                                 scratch, first)
+        n_static += s
+        n_dynamic += d
     return n_static, n_dynamic
 
 
