@@ -383,6 +383,41 @@ def test_broad_phase_does_not_change_results(seed):
     assert (sa, da) == (sb, db)
 
 
+def reference_handle_all(collider, xs, x, v):
+    """``handle_all`` spelled out for points with an empty cache: each point against every volume in turn with
+    ``response.handle_pair`` (which rotates the point into the volume itself), from where the previous hit put
+    it, then up to four static passes while one moves it; no broad phase, no cache."""
+    from garment_sim_ros.collision import response
+
+    c, vol = collider, collider.arrays
+    x, v = x.copy(), v.copy()
+    for i in range(len(x)):
+        hits = 0
+        for k in range(len(vol.kinds)):
+            hits += response.handle_pair(vol, k, xs, x, v, i, H, c._eps, c._friction, c._grip, c._c_time,
+                                         c._switch_ratio, c._mode)[0] != response.NO_HIT
+        for _ in range(4 if hits else 0):
+            moved = [response.handle_pair(vol, k, xs, x, v, i, H, c._eps, c._friction, c._grip, c._c_time,
+                                          c._switch_ratio, response.MODE_STATIC)[0] != response.NO_HIT
+                     for k in range(len(vol.kinds))]
+            if not any(moved):
+                break
+    return x, v
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_handle_all_equals_every_pair_handled_in_turn(seed):
+    """The kernel scans a point's volumes once (its broad phase's box test hands the point's local coordinates to
+    the handling) and goes on from where each hit put the point: bit for bit the pair-by-pair handling."""
+    vols, pos0, rot0, pos1, rot1, xs, x, v = random_scene(seed)
+    c = make_collider(vols, len(x), pos0, rot0, pos1, rot1, cache_size=3)
+    xb, vb = handle(c, xs, x, v)
+    xr, vr = reference_handle_all(c, xs, x, v)
+    assert c.static_hits + c.dynamic_hits > 20 and c.dynamic_hits > 0  # the scene collides, both ways
+    np.testing.assert_array_equal(xb, xr)
+    np.testing.assert_array_equal(vb, vr)
+
+
 def test_broad_phase_rejects_far_pairs():
     from garment_sim_ros.collision import broad_phase
     vols, pos0, rot0, pos1, rot1, xs, x, v = random_scene(4)

@@ -33,6 +33,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from .geometry import (
     entry,
     kernel,
@@ -118,9 +120,10 @@ def block_boxes(x, triangles, boxes):
         for c in range(3):
             boxes[k, c] = math.inf
             boxes[k, 3 + c] = -math.inf
-        for t in range(k * AXIS_BLOCK, min((k + 1) * AXIS_BLOCK, n_triangles)):
+        for run in range(k * AXIS_BLOCK, min((k + 1) * AXIS_BLOCK, n_triangles)):
+            t = np.uint64(run)  # unsigned: no test for a negative index (``kernels._handle_edge_run``)
             for j in range(3):
-                i = triangles[t, j]
+                i = np.uint64(triangles[t, j])
                 for c in range(3):
                     boxes[k, c] = min(boxes[k, c], x[i, c])
                     boxes[k, 3 + c] = max(boxes[k, 3 + c], x[i, c])
@@ -428,8 +431,10 @@ def handle_axes(arrays, xs, x, vel, inv_mass, h, triangles, eps, passes, corners
             for k in range(boxes.shape[0]):
                 if moved == 0 and segment_misses_block(boxes, k, px, py, pz, qx, qy, qz):
                     continue
-                for t in range(k * AXIS_BLOCK, min((k + 1) * AXIS_BLOCK, n_triangles)):
-                    a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+                for run in range(k * AXIS_BLOCK, min((k + 1) * AXIS_BLOCK, n_triangles)):
+                    # unsigned: no test for a negative index on each of the many loads below
+                    t = np.uint64(run)
+                    a, b, c = np.uint64(triangles[t, 0]), np.uint64(triangles[t, 1]), np.uint64(triangles[t, 2])
                     if segment_misses_triangle_box(x, a, b, c, px, py, pz, qx, qy, qz):
                         continue
                     crosses, s, u, w = segment_crosses_triangle(px, py, pz, dx, dy, dz, x, a, b, c)
