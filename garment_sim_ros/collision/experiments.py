@@ -74,7 +74,7 @@ def _fall(start, velocity, h, first_step, duration, mode, stop_at_first_hit, fri
     vol = VolumeArrays(np.array([ELLIPSOID]), np.array([[RADII[0], RADII[1], RADII[2]]]), np.array([[-np.inf, np.inf]]),
                        nowhere, np.array([min(RADII[0], RADII[1])]), np.full((1, 2), np.nan), np.zeros((1, 6)),
                        np.zeros((1, 3)), np.zeros((1, 3, 3)), np.zeros((1, 3)), np.zeros((1, 3, 3)), nowhere, nowhere,
-                       nowhere, np.full((1, MAX_PLANES, 4), np.inf), np.zeros((1, 1)))
+                       nowhere, np.full((1, MAX_PLANES, 4), np.inf), np.zeros((1, 1)), np.zeros(1, dtype=np.bool_))
     xs = np.zeros((1, 3))
     x = start.reshape(1, 3).copy()
     vel = velocity.reshape(1, 3).copy()
