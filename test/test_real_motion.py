@@ -194,6 +194,19 @@ def test_long_skirt_goes_round_a_wide_stride():
     assert np.percentile(widest, 99) <= 1.05
 
 
+def test_a_hem_under_a_lifted_foot_is_not_held_past_the_ankle():
+    """CC basketball, long skirt, 1x at 60 fps (issue 11 (d)): at 2.1 s the right ankle, a shin's far end with no
+    foot volume, came down into the hem from inside the skirt, and the rule for a limb's end poking into the cloth
+    (``crossing._entered_end``) put the hem's triangles back past the end, along the bone, every substep after,
+    as the foot lifted: three hem points held 3 mm past the ankle end, their springs pulled to 3.3 x their rest
+    length, the frame's structural p99 1.05 -> 1.13 over 2.2-2.4 s. The rule now holds at a wrist only (the
+    foot goes on from the ankle at an angle): the hem goes across the shin's bone as at any other crossing."""
+    row = evaluate_run(Run(str(DATA / "cc_cmu_06_14_basketball_crossover_shoot.bvh"), "long_skirt", 1.0, 60.0, 2.4))
+    assert row["frames"] == 144
+    assert row["structural_stretch_p99"] <= 1.05 and row["shear_stretch_p99"] <= 1.05
+    assert row["bones_frames"] == 0
+
+
 def test_the_trousers_waistband_follows_the_trunk_through_the_cartwheels_bend():
     """CC cartwheel, trousers, 3x at 30 fps, the whole clip (issue 11): the pelvis turns up to 89 deg against
     the waist (0.9-1.7 s at 1x). Carried by the pelvis alone, the waistband's front went into the belly, its

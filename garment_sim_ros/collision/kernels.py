@@ -44,7 +44,7 @@ from .geometry import (
     static_projection,
     to_local,
 )
-from .response import MODE_STATIC, NO_HIT, STATIC_HIT, depth_elsewhere, handle_pair
+from .response import MODE_STATIC, NO_HIT, STATIC_HIT, depth_elsewhere, handle_local_pair, handle_pair
 from .volume_arrays import VolumeArrays
 from .volumes import CAPSULE, SPHERE
 
@@ -90,31 +90,37 @@ def substep_poses(arrays, frame_pos, frame_quat, f0, f1, pressing, clearance, ga
 # ----------------------------------------------------------------------------- drivers over points
 
 @kernel
-def _next_candidate(vol, xs, x, i, cache, start):
+def _next_candidate(vol, xs, x, i, cache, any_cached, start):
     """The first uncached volume ``v >= start`` that point i may hit (within its reach, then its local box
-    meets the segment p0' -> p1); the volume count if none. Most pairs end here, in a few dozen flops."""
+    meets the segment p0' -> p1), with p0' and p1 in its frame (``handle_local_pair``'s ``a``, ``b``): ``(v,
+    ax, ay, az, bx, by, bz)``; v is the volume count if none. Most pairs end here, in a few dozen flops.
+    ``any_cached``: whether point i's cache row holds a volume (``_has_cached``; if not, it is not searched)."""
     n_volumes = vol.kinds.shape[0]
     for v in range(start, n_volumes):
         cached = False
-        for c in range(cache.shape[1]):
+        for c in range(cache.shape[1] if any_cached else 0):
             cached = cached or cache[i, c] == v
-        if cached or out_of_reach(vol, v, x, i):  # the cache first: a point resting on a volume skips its rotations
+        u = np.uint64(v)  # unsigned: no test for a negative index in the loads below (start is not known >= 0)
+        if cached or out_of_reach(vol, u, x, i):  # the cache first: a point resting on a volume skips its rotations
             continue
-        bx, by, bz = to_local(vol.pos1, vol.rot1, v, x[i, 0], x[i, 1], x[i, 2])
-        ax, ay, az = to_local(vol.pos0, vol.rot0, v, xs[i, 0], xs[i, 1], xs[i, 2])
-        if not segment_misses_box(vol.boxes, v, ax, ay, az, bx, by, bz):
-            return v
-    return n_volumes
+        bx, by, bz = to_local(vol.pos1, vol.rot1, u, x[i, 0], x[i, 1], x[i, 2])
+        ax, ay, az = to_local(vol.pos0, vol.rot0, u, xs[i, 0], xs[i, 1], xs[i, 2])
+        if not segment_misses_box(vol.boxes, u, ax, ay, az, bx, by, bz):
+            return v, ax, ay, az, bx, by, bz
+    return n_volumes, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+
+
+# ``_handle_point_all``'s ``first`` for a point with cached volumes: its scan comes after them, from where they put it
+_AFTER_CACHE = (-1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
 @kernel
-def _needs_handling(vol, xs, x, i, cache):
-    """Whether point i has a cached volume or may hit another one; if not, ``_handle_point_all`` would
-    change nothing. Checked first, in a loop without the handling's code, as most points are clear."""
+def _has_cached(cache, i):
+    """Whether point i's contact cache holds a volume."""
     for c in range(cache.shape[1]):
         if cache[i, c] >= 0:
             return True
-    return _next_candidate(vol, xs, x, i, cache, 0) < vol.kinds.shape[0]
+    return False
 
 
 @kernel
@@ -139,11 +145,13 @@ def _record(scratch, i, start, count, capacity, v):
 
 @kernel
 def _handle_point_all(vol, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, mode, margin, cache,
-                      scratch):
+                      scratch, first):
     """Point i against every volume, cached volumes first (temporal coherence), then rebuilds
     its cache row: this call's hits first, then the older entries the point is still near
     (the broad phase evicts the others). ``scratch[i]`` (length 2 C) holds the hits in its
-    first half and the kept entries in its second. Returns (static hits, dynamic hits)."""
+    first half and the kept entries in its second. ``first``: for a point with an empty cache,
+    the caller's ``_next_candidate(..., 0)`` (its scan is not repeated); else ``_AFTER_CACHE``. Returns (static
+    hits, dynamic hits)."""
     n_volumes = vol.kinds.shape[0]
     cache_size = cache.shape[1]
     n_static = 0
@@ -168,9 +176,11 @@ def _handle_point_all(vol, xs, x, vel, i, h, eps, friction, grip, c_time, switch
         else:
             n_dynamic += 1
         n_hits = _record(scratch, i, 0, n_hits, cache_size, v)
-    v = _next_candidate(vol, xs, x, i, cache, 0)
+    any_cached = first[0] < 0
+    v, ax, ay, az, bx, by, bz = _next_candidate(vol, xs, x, i, cache, True, 0) if any_cached else first
     while v < n_volumes:
-        code = handle_pair(vol, v, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, mode)[0]
+        code = handle_local_pair(vol, v, x, vel, i, ax, ay, az, bx, by, bz, h, eps, friction, grip, c_time,
+                                 switch_ratio, mode)[0]
         if code != NO_HIT:
             if code == STATIC_HIT:
                 n_static += 1
@@ -178,7 +188,7 @@ def _handle_point_all(vol, xs, x, vel, i, h, eps, friction, grip, c_time, switch
                 n_dynamic += 1
             n_hits = _record(scratch, i, 0, n_hits, cache_size, v)
         # from the point's current position: a hit has moved it
-        v = _next_candidate(vol, xs, x, i, cache, v + 1)
+        v, ax, ay, az, bx, by, bz = _next_candidate(vol, xs, x, i, cache, any_cached, v + 1)
     # Volumes overlap at the joints: being pushed out of one can push a point into its
     # neighbour (the crotch between pelvis and thigh). A few static passes settle it.
     for _ in range(_SETTLE_PASSES if n_static + n_dynamic > 0 else 0):
@@ -220,12 +230,19 @@ def _handle_all(arrays, xs, x, vel, inv_mass, h, eps, friction, grip, c_time, sw
     reach_radii(vol, xs, x, inv_mass)
     n_static = 0
     n_dynamic = 0
+    n_volumes = vol.kinds.shape[0]
     for i in prange(x.shape[0]):  # the points are independent here: each touches its own rows only
-        if inv_mass[i] != 0.0 and _needs_handling(vol, xs, x, i, cache):
-            s, d = _handle_point_all(vol, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, mode, margin,
-                                     cache, scratch)
-            n_static += s
-            n_dynamic += d
+        if inv_mass[i] == 0.0:
+            continue
+        # Most points have no cached volume and none within reach: one scan, in a loop without the handling's
+        # code, finds that, and its first candidate is where the handling goes on.
+        first = _AFTER_CACHE if _has_cached(cache, i) else _next_candidate(vol, xs, x, i, cache, False, 0)
+        if first[0] == n_volumes:
+            continue
+        s, d = _handle_point_all(vol, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, mode, margin, cache,
+                                 scratch, first)
+        n_static += s
+        n_dynamic += d
     return n_static, n_dynamic
 
 
@@ -322,8 +339,8 @@ def _handle_edge_run(arrays, xs, x, inv_mass, edges, rest_lengths, start, end, e
     n_moved = 0
     for k in range(start, end):
         e = np.uint64(k)  # unsigned: no test for a negative index (a run from a start not known >= 0: dearer)
-        a = edges[e, 0]
-        b = edges[e, 1]
+        a = np.uint64(edges[e, 0])
+        b = np.uint64(edges[e, 1])
         if inv_mass[a] == 0.0 and inv_mass[b] == 0.0:
             continue
         length2 = (x[b, 0] - x[a, 0]) ** 2 + (x[b, 1] - x[a, 1]) ** 2 + (x[b, 2] - x[a, 2]) ** 2

@@ -42,6 +42,8 @@ class VolumeArrays(NamedTuple):
     # (V, V) m: how deep a corner of a triangle moved off volume v's bone may be put into volume o (row v,
     # column o; ``crossing``): ``pinch_depth``, or ``pressed_pinch_depth`` for a pair that may be pressed together
     pinch_depths: np.ndarray
+    # (V,) bool: the bone's far end is a hand's, which pushes the cloth it pokes into ahead of it (``crossing``)
+    pushes_ahead: np.ndarray
 
     @classmethod
     def at_rest(cls, volumes: VolumeSet) -> VolumeArrays:
@@ -56,7 +58,8 @@ class VolumeArrays(NamedTuple):
                    np.ascontiguousarray(volumes.switch_radii, dtype=np.float64),
                    np.ascontiguousarray(volumes.bones, dtype=np.float64), boxes,
                    np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)), np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)),
-                   np.zeros(n), np.zeros(n), np.zeros(n), no_planes(n), np.zeros((n, n)))
+                   np.zeros(n), np.zeros(n), np.zeros(n), no_planes(n), np.zeros((n, n)),
+                   np.array([name.endswith("_lower_arm") for name in volumes.names()], dtype=np.bool_))
 
     def unbounded(self) -> VolumeArrays:
         """The same arrays (poses shared) with infinite bounding radii and boxes: every broad-phase test
