@@ -14,7 +14,7 @@ corner (the row under a waistband) cannot go back that way: when the bone reache
 go to the side of the bone its attached corners are on (``_attached_side``; a forearm at the hip, CC
 jump: the skirt no longer stays caught on it, issue 11). A triangle the bone still crosses at the substep's
 start (caught) is part of one sheet whose edge is far: moved across the bone it only passes the crossing to a
-neighbour. Where the limb's end is free (a wrist), it goes off the bone past that end instead (CC jump: the
+neighbour. Where the limb's end is a free wrist, it goes off the bone past that end instead (CC jump: the
 band row caught on the forearm after the hand left the hip, 11 frames on each garment before).
 
 Priority in a pinch (a forearm on the hip, an arm against the chest: two volumes overlap and
@@ -289,7 +289,7 @@ def _entered_end(vol, v, triangles, t, u, w, xs):
     the foot lifted (CC basketball, long skirt, 1x 60 fps: three hem points 3-4 mm past it for 50 frames, their
     springs 3.3x their rest length)."""
     a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-    if not vol.pushes_ahead[v] or _crossed_at_start(vol, v, xs, a, b, c):
+    if _crossed_at_start(vol, v, xs, a, b, c):
         return False
     wa = 1.0 - u - w
     lz = to_local(vol.pos0, vol.rot0, v, wa * xs[a, 0] + u * xs[b, 0] + w * xs[c, 0],
@@ -301,8 +301,10 @@ def _entered_end(vol, v, triangles, t, u, w, xs):
 
 @kernel
 def _end_free(vol, v):
-    """Whether volume v's bone ends where the limb ends, inside no other volume (a wrist, an ankle with no foot; an
-    elbow is inside the forearm's volume, a knee inside the shin's): cloth can go off the bone past that end."""
+    """Whether volume v's bone ends at a wrist (``pushes_ahead``) inside no other volume (an elbow is inside the
+    forearm's volume): cloth can go off the bone past that end (not an ankle: ``_entered_end``)."""
+    if not vol.pushes_ahead[v]:
+        return False
     ex, ey, ez = to_world(vol.pos1, vol.rot1, v, 0.0, 0.0, vol.bones[v, 1])
     return depth_elsewhere(vol, v, ex, ey, ez) == 0.0
 
