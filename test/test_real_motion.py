@@ -87,6 +87,22 @@ def test_a_forearm_at_the_hip_does_not_stay_caught_under_the_waistband():
     assert not any(through[90:])
 
 
+@pytest.mark.parametrize("garment", ["short_skirt", "long_skirt", "pants"])
+def test_a_forearm_leaving_the_waistband_takes_no_cloth_with_it(garment):
+    """Issue 11 (b), the CC jump, 1x at 60 fps, the whole clip: at 1.08-1.20 s the right forearm lies on the
+    waistband (the band's attached points within 25 mm of the bone, on both sides of it) and its wrist end gets
+    under the band. From 1.22 s the hand leaves the hip and the band is 34-127 mm from the bone, but the band-row
+    triangle the bone crossed, caught, was left, and the crossing passed on as its free corners moved: the bone
+    stayed through to 1.38 s on main (11 frames on each garment). A caught triangle goes off the bone past the
+    limb's free end, the wrist (``crossing._push_off_axis``): none after 1.20 s."""
+    source = bvh_source(str(DATA / "cc_cmu_02_04_jump_balance.bvh"), loop=False)
+    character = make_character(source.rest_pose, source.joint_map, [garment], preset("si"), motion=source.fit_poses())
+    through = [reports[0].bones_through for _, _, reports in simulate_frames(source, character, np.arange(241) / 60.0)
+               if reports is not None]
+    assert len(through) == 240 and any(through[64:72])  # the forearm on the band
+    assert not any(through[72:]), [i + 1 for i, n in enumerate(through) if n and i >= 72]
+
+
 def test_a_hand_on_the_hip_does_not_spear_the_trousers():
     """Issue 11 (b), cmu_131 (a walk with the left hand on the hip from 1.83 s), trousers, 1x at 60 fps: the
     forearm is pressed up to 45 mm into the pelvis' and 43 mm into the left thigh's volumes and its wrist spears

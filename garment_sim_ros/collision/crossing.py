@@ -12,7 +12,10 @@ of ``eps`` on that side goes there, a corner already there stays; a corner so mo
 the limb goes out across its surface radially, so it stays on its side. A triangle with an attached
 corner (the row under a waistband) cannot go back that way: when the bone reaches it, its free corners
 go to the side of the bone its attached corners are on (``_attached_side``; a forearm at the hip, CC
-jump: the skirt no longer stays caught on it, issue 11).
+jump: the skirt no longer stays caught on it, issue 11). A triangle the bone still crosses at the substep's
+start (caught) is part of one sheet whose edge is far: moved across the bone it only passes the crossing to a
+neighbour. Where the limb's end is a free wrist, it goes off the bone past that end instead (CC jump: the
+band row caught on the forearm after the hand left the hip, 11 frames on each garment before).
 
 Priority in a pinch (a forearm on the hip, an arm against the chest: two volumes overlap and
 squeeze the cloth): the cloth goes no further than where the other volume begins (``_room``), and a
@@ -286,12 +289,21 @@ def _entered_end(vol, v, triangles, t, u, w, xs):
     the foot lifted (CC basketball, long skirt, 1x 60 fps: three hem points 3-4 mm past it for 50 frames, their
     springs 3.3x their rest length)."""
     a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-    if not vol.pushes_ahead[v] or _crossed_at_start(vol, v, xs, a, b, c):
+    if _crossed_at_start(vol, v, xs, a, b, c):
         return False
     wa = 1.0 - u - w
     lz = to_local(vol.pos0, vol.rot0, v, wa * xs[a, 0] + u * xs[b, 0] + w * xs[c, 0],
                   wa * xs[a, 1] + u * xs[b, 1] + w * xs[c, 1], wa * xs[a, 2] + u * xs[b, 2] + w * xs[c, 2])[2]
     if lz <= vol.bones[v, 1]:
+        return False
+    return _end_free(vol, v)
+
+
+@kernel
+def _end_free(vol, v):
+    """Whether volume v's bone ends at a wrist (``pushes_ahead``) inside no other volume (an elbow is inside the
+    forearm's volume): cloth can go off the bone past that end (not an ankle: ``_entered_end``)."""
+    if not vol.pushes_ahead[v]:
         return False
     ex, ey, ez = to_world(vol.pos1, vol.rot1, v, 0.0, 0.0, vol.bones[v, 1])
     return depth_elsewhere(vol, v, ex, ey, ez) == 0.0
@@ -303,6 +315,13 @@ def _load_corners(vol, v, x, triangles, t, corners):
     for k in range(3):
         i = triangles[t, k]
         corners[k, 0], corners[k, 1], corners[k, 2] = to_local(vol.pos1, vol.rot1, v, x[i, 0], x[i, 1], x[i, 2])
+
+
+@kernel
+def _past_end(vol, v, x, triangles, t, eps, corners):
+    """``_destinations`` of triangle t of ``x`` off volume v's bone past its far end (into ``corners``)."""
+    _load_corners(vol, v, x, triangles, t, corners)
+    return _destinations(vol, v, 0.0, 0.0, True, eps, corners)
 
 
 @kernel
@@ -362,25 +381,31 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
     for 150 frames). Where that has no room, and for every other crossing, it goes across the bone to its side
     (unit local direction (ux, uy), ``_side_direction``): the least move that takes the bone out of the triangle,
     seen along the bone; a corner already on that side stays. An approaching velocity relative to v's surface is
-    removed. A triangle with an attached corner (it rides on the body) goes to the side its attached corners are
-    on (``_attached_side``) when the bone reached it in this substep; one caught already, or whose attached
-    corners straddle the bone, is left as it is, and so is one that would end with a corner deeper than
-    ``vol.pinch_depths`` allows in another volume: where two volumes overlap more than that round a bone there is
-    no room for cloth, and contact wins.
-    Returns whether it moved."""
-    _load_corners(vol, v, x, triangles, t, corners)
+    removed. A triangle crossed at the substep's start already (caught) goes past the end when the limb's end is
+    free (``_end_free``), its attached corners staying. A triangle with an attached corner (it rides on the body)
+    goes to the side its attached corners are on (``_attached_side``) when the bone reached it in this substep;
+    one caught already (its limb's end inside another volume), or whose attached corners straddle the bone, is left
+    as it is, and so is one that would end with a corner deeper than ``vol.pinch_depths`` allows in another
+    volume: where two volumes overlap more than that round a bone there is no room for cloth, and contact wins.
+    Returns whether a corner moved (a triangle still crossed with its free corners past the end does not)."""
     ux, uy, uz = 0.0, 0.0, 0.0
-    if inv_mass[triangles[t, 0]] == 0.0 or inv_mass[triangles[t, 1]] == 0.0 or inv_mass[triangles[t, 2]] == 0.0:
-        if _crossed_at_start(vol, v, xs, triangles[t, 0], triangles[t, 1], triangles[t, 2]):
+    caught = _crossed_at_start(vol, v, xs, triangles[t, 0], triangles[t, 1], triangles[t, 2])
+    if caught and _end_free(vol, v) and _past_end(vol, v, x, triangles, t, eps, corners):
+        # moved across the bone, a caught triangle only passes the crossing on to a neighbour (the cloth is one
+        # sheet, its edge far away); past the limb's free end the bone leaves it (CC jump: the band row)
+        uz = 1.0
+    elif inv_mass[triangles[t, 0]] == 0.0 or inv_mass[triangles[t, 1]] == 0.0 or inv_mass[triangles[t, 2]] == 0.0:
+        if caught:
             # caught before this substep: its free neighbours hold it (their side, by continuity); moved, it
             # would pass back and forth with them (CC jump, short skirt, 2x 60 fps: 11 -> 88 frames)
             return False
+        _load_corners(vol, v, x, triangles, t, corners)
         ux, uy, clear = _attached_side(triangles, t, inv_mass, corners, eps)
         if not clear:
             return False  # its attached corners straddle the bone: no move of the free ones clears it
         if not _destinations(vol, v, ux, uy, False, eps, corners):
             return False
-    elif _entered_end(vol, v, triangles, t, u, w, xs) and _destinations(vol, v, 0.0, 0.0, True, eps, corners):
+    elif _entered_end(vol, v, triangles, t, u, w, xs) and _past_end(vol, v, x, triangles, t, eps, corners):
         uz = 1.0
     else:
         _load_corners(vol, v, x, triangles, t, corners)
@@ -389,10 +414,12 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
             return False
     pos1, rot1 = vol.pos1, vol.rot1
     wnx, wny, wnz = rotate(rot1, v, ux, uy, uz)
+    moved = False
     for k in range(3):
         i = triangles[t, k]
-        if corners[k, 0] == x[i, 0] and corners[k, 1] == x[i, 1] and corners[k, 2] == x[i, 2]:
-            continue
+        if inv_mass[i] == 0.0 or (corners[k, 0] == x[i, 0] and corners[k, 1] == x[i, 1] and corners[k, 2] == x[i, 2]):
+            continue  # an attached corner rides on the body
+        moved = True
         x[i, 0], x[i, 1], x[i, 2] = corners[k, 0], corners[k, 1], corners[k, 2]
         lx, ly, lz = to_local(pos1, rot1, v, x[i, 0], x[i, 1], x[i, 2])
         svx, svy, svz = surface_velocity(vol, v, lx, ly, lz, h)
@@ -401,7 +428,7 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
             vel[i, 0] -= approach * wnx
             vel[i, 1] -= approach * wny
             vel[i, 2] -= approach * wnz
-    return True
+    return moved
 
 
 @kernel
