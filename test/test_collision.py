@@ -633,18 +633,25 @@ def test_a_strip_that_slides_over_a_still_limb_goes_back_to_the_side_it_came_fro
     assert not bone_through_strip(x, np.zeros(3)) and np.all(x[:, 0] >= 0.003 - 1e-12)
 
 
-def test_a_limb_end_poking_into_a_strip_pushes_it_along_the_bone_past_the_end():
-    """An upright limb rises 3 cm into a level strip held 1 cm beyond its bone's far end (a hand poking into a
-    skirt): at the substep's end the bone passes through the strip 2 cm short of its end. Moved across the bone,
-    a triangle only passes it on to its neighbour (cmu_01_01, issue 11); the crossed triangle goes back past
-    the end, along the bone, and no corner moves sideways."""
+def poke_strip(limb):
+    """An upright ``limb`` rising 3 cm into a level strip held 1 cm beyond its bone's far end, swept once: the
+    bone's end, the collider, the strip before and after. Checks the strip was crossed before and is not after."""
     end = np.array([0.0, 0.0, -0.10])
-    c = make_collider([forearm(name="left_lower_arm")], 4, [0.0, 0.0, -0.13], pos1=end, collision_epsilon=0.003)
+    c = make_collider([forearm(name=limb)], 4, [0.0, 0.0, -0.13], pos1=end, collision_epsilon=0.003)
     x_start = strip(0.01)
     x = x_start.copy()
     before, moved, _ = sweep(c, x_start, x)
     assert np.array_equal(before, x_start) and bone_through_strip(before, end)
     assert moved >= 1 and not bone_through_strip(x, end)
+    return end, c, x_start, x
+
+
+def test_a_limb_end_poking_into_a_strip_pushes_it_along_the_bone_past_the_end():
+    """An upright limb rises 3 cm into a level strip held 1 cm beyond its bone's far end (a hand poking into a
+    skirt): at the substep's end the bone passes through the strip 2 cm short of its end. Moved across the bone,
+    a triangle only passes it on to its neighbour (cmu_01_01, issue 11); the crossed triangle goes back past
+    the end, along the bone, and no corner moves sideways."""
+    end, c, x_start, x = poke_strip("left_lower_arm")
     assert np.allclose(x[:, :2], x_start[:, :2])  # along the bone only
     assert np.all(x[:3, 2] >= end[2] + 0.12 + 0.003 - 1e-12)  # the crossed triangle, past the bone's end by eps
     assert np.array_equal(x[3], x_start[3])  # the other triangle's own corner stays
@@ -655,13 +662,7 @@ def test_a_shin_end_in_a_strip_sends_it_across_the_bone_not_past_the_ankle():
     """The same poke with a shin (``left_lower_leg``): past an ankle the foot goes on at an angle, and a hem held
     past the ankle end rode up with the lifting foot (CC basketball, long skirt, 1x 60 fps: springs 3.3x their
     rest length for 50 frames). The crossed triangle goes across the bone, as at any other crossing."""
-    end = np.array([0.0, 0.0, -0.10])
-    c = make_collider([forearm(name="left_lower_leg")], 4, [0.0, 0.0, -0.13], pos1=end, collision_epsilon=0.003)
-    x_start = strip(0.01)
-    x = x_start.copy()
-    before, moved, _ = sweep(c, x_start, x)
-    assert np.array_equal(before, x_start) and bone_through_strip(before, end)
-    assert moved >= 1 and not bone_through_strip(x, end)
+    end, c, x_start, x = poke_strip("left_lower_leg")
     assert not np.allclose(x[:, :2], x_start[:, :2])  # moved sideways, across the bone
     assert np.all(x[:, 2] < end[2] + 0.12)  # nothing pushed past the ankle end
 
