@@ -41,13 +41,12 @@ import numpy as np
 from .geometry import (
     entry,
     kernel,
-    penetration_depth,
     rotate,
     static_projection,
     to_local,
     to_world,
 )
-from .response import deepest_elsewhere, depth_elsewhere, surface_velocity
+from .response import deepest_elsewhere, depth_elsewhere, depth_in, surface_velocity
 from .volume_arrays import VolumeArrays
 
 # Barycentric and segment-parameter slack of the crossing test: a bone through a shared edge or
@@ -282,15 +281,14 @@ def _room(vol, v, lx, ly, lz, ux, uy, uz, length):
 
 @kernel
 def _entered_end(vol, v, triangles, t, u, w, xs):
-    """Whether volume v's bone reached triangle t, crossed at barycentric (u, w), past its far end: the crossed
+    """Whether volume v's bone, which did not cross triangle t at the substep's start (the caller's ``caught``),
+    reached it, crossed at barycentric (u, w), past its far end: the crossed
     point lay beyond that end along the bone at the substep's start, and the end is a wrist (``pushes_ahead``)
     inside no other volume. Its near end is always at the trunk or the limb above (``body.fitting``). Not an
     ankle: there the foot goes on at an angle, and a hem the foot came down on was held past the ankle end as
     the foot lifted (CC basketball, long skirt, 1x 60 fps: three hem points 3-4 mm past it for 50 frames, their
     springs 3.3x their rest length)."""
     a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-    if _crossed_at_start(vol, v, xs, a, b, c):
-        return False
     wa = 1.0 - u - w
     lz = to_local(vol.pos0, vol.rot0, v, wa * xs[a, 0] + u * xs[b, 0] + w * xs[c, 0],
                   wa * xs[a, 1] + u * xs[b, 1] + w * xs[c, 1], wa * xs[a, 2] + u * xs[b, 2] + w * xs[c, 2])[2]
@@ -361,13 +359,8 @@ def _destinations(vol, v, ux, uy, past_end, eps, corners):
 def _too_deep(vol, v, px, py, pz):
     """Whether the simulation-frame point p is deeper in a volume o other than v than a corner moved off v's bone
     may be (``vol.pinch_depths[v, o]``), at the end poses."""
-    pos, rot = vol.pos1, vol.rot1
     for o in range(vol.kinds.shape[0]):
-        if o == v or (px - pos[o, 0]) ** 2 + (py - pos[o, 1]) ** 2 + (pz - pos[o, 2]) ** 2 > (
-                vol.bounding_radii[o] ** 2):
-            continue
-        lx, ly, lz = to_local(pos, rot, o, px, py, pz)
-        if penetration_depth(vol.kinds[o], vol.radii, vol.cuts, vol.planes, o, lx, ly, lz) > vol.pinch_depths[v, o]:
+        if o != v and depth_in(vol, o, px, py, pz) > vol.pinch_depths[v, o]:
             return True
     return False
 
@@ -405,7 +398,8 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
             return False  # its attached corners straddle the bone: no move of the free ones clears it
         if not _destinations(vol, v, ux, uy, False, eps, corners):
             return False
-    elif _entered_end(vol, v, triangles, t, u, w, xs) and _past_end(vol, v, x, triangles, t, eps, corners):
+    elif (not caught and _entered_end(vol, v, triangles, t, u, w, xs)
+          and _past_end(vol, v, x, triangles, t, eps, corners)):
         uz = 1.0
     else:
         _load_corners(vol, v, x, triangles, t, corners)

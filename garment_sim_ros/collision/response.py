@@ -154,17 +154,24 @@ def depth_elsewhere(vol, v, px, py, pz):
 @kernel
 def deepest_elsewhere(vol, v, px, py, pz):
     """``(depth, o)``: ``depth_elsewhere`` and the volume o it is in (-1: none; v = -1: any volume)."""
-    kinds, radii, cuts, bounding_radii = vol.kinds, vol.radii, vol.cuts, vol.bounding_radii
-    pos, rot = vol.pos1, vol.rot1
     deepest, which = 0.0, -1
-    for o in range(kinds.shape[0]):
-        if o == v or (px - pos[o, 0]) ** 2 + (py - pos[o, 1]) ** 2 + (pz - pos[o, 2]) ** 2 > bounding_radii[o] ** 2:
+    for o in range(vol.kinds.shape[0]):
+        if o == v:
             continue
-        lx, ly, lz = to_local(pos, rot, o, px, py, pz)
-        depth = penetration_depth(kinds[o], radii, cuts, vol.planes, o, lx, ly, lz)
+        depth = depth_in(vol, o, px, py, pz)
         if depth > deepest:
             deepest, which = depth, o
     return deepest, which
+
+
+@kernel
+def depth_in(vol, o, px, py, pz):
+    """Depth (m) of the simulation-frame point p in volume o (end pose); 0 outside its bounding sphere."""
+    pos = vol.pos1
+    if (px - pos[o, 0]) ** 2 + (py - pos[o, 1]) ** 2 + (pz - pos[o, 2]) ** 2 > vol.bounding_radii[o] ** 2:
+        return 0.0
+    lx, ly, lz = to_local(pos, vol.rot1, o, px, py, pz)
+    return penetration_depth(vol.kinds[o], vol.radii, vol.cuts, vol.planes, o, lx, ly, lz)
 
 
 @kernel
