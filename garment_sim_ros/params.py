@@ -170,7 +170,8 @@ PARAMETERS: tuple[Param, ...] = (
           "another volume (a pinch: a hand on the hip); contact wins there"),
     Param("pressed_pinch_depth", 0.01, "m", 0.0, 0.1,
           "the same, into a volume that may be pressed against the bone's (``contact_planes``: a forearm "
-          "on the hip or the thigh); the point handling after the bones' takes such a point out again"),
+          "on the hip or the thigh) or that meets it at a joint (the forearm at the upper arm's elbow); the "
+          "point handling after the bones' takes such a point out again"),
     Param("edge_pinch_depth", 0.0, "m", 0.0, 0.1,
           "opt-in: an edge a limb cuts stays cut when moving it out would put an end deeper than this into "
           "another volume (a thigh against the belly); 0: off, edges always move out"),

@@ -210,6 +210,20 @@ def test_volumes_overlapping_at_rest_round_bones_that_share_no_joint_are_pressed
     assert len(contact_planes.pressable_pairs(end_to_end)) == 0
 
 
+def test_limbs_meeting_at_a_joint_let_cloth_off_a_bone_into_each_other_as_pressed_flesh():
+    """An upper arm and its forearm overlap round the elbow by design: a triangle moved off one's bone next to
+    the joint may go ``pressed_pinch_depth`` into the other (``crossing._too_deep``), not only ``pinch_depth``.
+    Two limbs side by side (bones apart: pressed) are no joint; without rest poses there are none."""
+    end_to_end = VolumeSet((_bone_capsule("a", 0.1), _bone_capsule("b", 0.1)),
+                           (np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.4]]), np.tile(IDENTITY, (2, 1))))
+    assert contact_planes.jointed_pairs(end_to_end).tolist() == [[0, 1]]
+    depths = Collider(end_to_end, 1, cache_size=1).arrays.pinch_depths
+    assert depths[0, 1] == depths[1, 0] == DEFAULT_PARAMS.pressed_pinch_depth != DEFAULT_PARAMS.pinch_depth
+    side_by_side = _pressed_pair(_bone_capsule("a", 0.1), _bone_capsule("b", 0.1), 0.15, rest_apart=False)
+    assert len(contact_planes.jointed_pairs(side_by_side.volumes)) == 0
+    assert len(contact_planes.jointed_pairs(VolumeSet(end_to_end.volumes))) == 0
+
+
 def test_the_cartwheels_thigh_against_the_belly_is_pressed_and_the_guard_stays_quiet():
     """Issue 11 (e): the CC cartwheel, 0 to 1.4 s at 60 fps, in the short skirt. From 1.0 s the right thigh is
     raised ~160 deg against the belly, deep in the torso's volume, the skirt's front between them. The torso

@@ -48,6 +48,7 @@ class Collider:
         n_volumes = len(volumes)
         self.arrays = VolumeArrays.at_rest(volumes)  # the kernels' view; poses at the substep's ends
         self._pressable = contact_planes.pressable_pairs(volumes)  # (K, 2) pairs that may be pressed together
+        self._jointed = contact_planes.jointed_pairs(volumes)  # (J, 2) pairs whose bones meet at a joint
         self.pressed_depth = 0.0  # m, the deepest overlap of two volumes pressed onto a contact plane this frame
         # as the kernels take them from Python (a plain tuple: see ``collision.kernels``); and with every
         # broad-phase test passing, the same poses
@@ -93,7 +94,9 @@ class Collider:
         if not self._press:
             self.arrays.planes[...] = no_planes(len(self.volumes))
         self.arrays.pinch_depths[...] = float(params.pinch_depth)
-        for a, b in self.pressing:
+        # flesh that gives way: pressed against the bone's volume, or the next limb's at the bone's joint (the
+        # upper arm's bone near the elbow: cmu_131's one-piece at 3x, every way off it 1-11 mm into the forearm)
+        for a, b in np.concatenate([self.pressing, self._jointed]):
             self.arrays.pinch_depths[a, b] = self.arrays.pinch_depths[b, a] = float(params.pressed_pinch_depth)
 
     def begin_frame(self, pos0, rot0, pos1, rot1) -> None:

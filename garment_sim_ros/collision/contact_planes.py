@@ -281,6 +281,19 @@ def pressable_pairs(volumes: VolumeSet) -> np.ndarray:
     return np.array(pairs, dtype=np.int64).reshape(-1, 2)
 
 
+def jointed_pairs(volumes: VolumeSet) -> np.ndarray:
+    """(K, 2) int64 volume index pairs (a < b) whose bones meet at a joint in ``volumes.rest_poses`` (an upper
+    arm and its forearm at the elbow, a thigh and its shin at the knee); none without rest poses."""
+    if volumes.rest_poses is None:
+        return np.zeros((0, 2), dtype=np.int64)
+    positions = np.ascontiguousarray(volumes.rest_poses[0], dtype=np.float64)
+    rotations = np.ascontiguousarray(quat_to_matrix(np.asarray(volumes.rest_poses[1], dtype=np.float64)))
+    bones = volumes.bones
+    pairs = [(a, b) for a in range(len(volumes)) for b in range(a + 1, len(volumes))
+             if not (np.isnan(bones[a, 0]) or np.isnan(bones[b, 0]) or _bones_apart(bones, positions, rotations, a, b))]
+    return np.array(pairs, dtype=np.int64).reshape(-1, 2)
+
+
 def _bones_apart(bones: np.ndarray, positions: np.ndarray, rotations: np.ndarray, a: int, b: int) -> bool:
     """Whether volumes a and b both have a bone (``VolumeSet.bones``) and the two share no joint: their
     segments more than ``JOINT_GAP`` apart in the given poses ((V, 3) m, (V, 3, 3))."""
