@@ -22,25 +22,31 @@ contact handling after its first iteration, velocity from the corrected position
 handling; then (beyond the memo) strain limiting as the substep's last projection. With volumes, ``advance`` runs the
 substeps in one compiled call (``cloth.fused``, the same kernels in the same order); its loop is the reference.
 
-Strain limiting after collision. Collision handling comes after the length correction and moves points out of the
-volumes one by one, so it stretches the springs between a point it moved and one it did not; more correction
-iterations before it do not help (measured on issue 11: a long skirt's p99 stretch 1.42 with 4 iterations, 1.47
-with 24). So after the collision handling the length correction runs again, with the points the handling moved (in
-contact) taking only ``contact_mobility`` of their share, so the free cloth gives way rather than the contacts,
-and the cached contacts handled after every sweep, so that the contacts are constraints of the same projection:
-the correction alone shortens a spring wrapped round a limb straight through it, and the handling after it undid
-its work (issue 11, xia_angry's long skirt, 8 sweeps, the worst substep's p99 stretch 1.06 after them and 1.23
-after the handling; the worst frame's 1.22, 1.10 with the contacts handled between the sweeps). Handled there
-statically: a point the correction pulled into a volume goes out across the nearest surface, not back to the side
-it came from at the substep's start, so that cloth pulled taut across a limb slides off it rather than being
-carried round it (issue 11, the cartwheel's long skirt upside down over the chest and arm: springs 2.3-3.1x after
-every sweep's handling, 1.3x after its correction; the whole clip's worst p99 2.03 -> 1.07 at 1x 60 fps). A
-garment with limb tubes (trousers) keeps the side: slid across a thigh, its cloth takes the crotch with it (CC
-jump, 1x 60 fps, 3 s: 4 -> 11 bone frames). It stops once no spring is longer than ``1 + limit_ratio +
-strain_limit_tolerance`` times its rest length. The displacement counts as velocity (``v += dx / h``, as the rest
-of the step's corrections do); the collision handling (points, then edges) runs once more, and a point it then
-leaves inside a volume (squeezed where two volumes meet) goes back to where it was; if a spring then ends longer
-than ``STRAIN_LIMIT_UNDONE`` and than the longest before, the substep keeps the state from before the limiting.
+Strain limiting after collision. Collision handling comes after the length correction and moves
+points out of the volumes one by one, so it stretches the springs between a point it moved and
+one it did not; more correction iterations before it do not help (measured on issue 11: a long
+skirt's p99 stretch 1.42 with 4 iterations, 1.47 with 24). So after the collision handling the
+length correction runs again, with the points the handling moved (in contact) taking only
+``contact_mobility`` of their share, so the free cloth gives way rather than the contacts, and the
+cached contacts handled after every sweep, so that the contacts are constraints of the same
+projection: the correction alone shortens a spring wrapped round a limb straight through it, and
+the handling after it undid its work (issue 11, xia_angry's long skirt, 8 sweeps, the worst substep's
+p99 stretch 1.06 after them and 1.23 after the handling; the worst frame's 1.22, 1.10 with the
+contacts handled between the sweeps). It stops once no spring is longer than
+``1 + limit_ratio + strain_limit_tolerance`` times its rest length. The displacement counts as
+velocity (``v += dx / h``, as the rest of the step's corrections do); the collision handling (points,
+then edges) runs once more, and a point it then leaves inside a volume (squeezed where two volumes
+meet) goes back to where it was; if a spring then ends longer than ``STRAIN_LIMIT_UNDONE`` and than
+the longest before, the substep keeps the state from before the limiting.
+
+Sliding, opt-in (``strain_limit_slide``): the strain limiting's contact handling is static, a point the
+correction pulled into a volume going out across the nearest surface, not back to the side it came from at the
+substep's start, so that cloth pulled taut across a limb slides off it rather than being carried round it
+(issue 11, the cartwheel's long skirt upside down over the chest and arm: springs 2.3-3.1x after every sweep's
+handling, 1.3x after its correction; the whole clip's worst p99 2.03 -> 1.07 at 1x 60 fps). A garment with
+limb tubes (trousers) keeps the side: slid across a thigh, its cloth takes the crotch with it (CC jump, 1x 60
+fps, 3 s: 4 -> 11 bone frames). Off by default: the one-piece's bodice is crossed by the arms
+(docs/real_motion.md).
 """
 
 from __future__ import annotations
