@@ -45,8 +45,8 @@ substep's start, so that cloth pulled taut across a limb slides off it rather th
 (issue 11, the cartwheel's long skirt upside down over the chest and arm: springs 2.3-3.1x after every sweep's
 handling, 1.3x after its correction; the whole clip's worst p99 2.03 -> 1.07 at 1x 60 fps). A garment with
 limb tubes (trousers) keeps the side: slid across a thigh, its cloth takes the crotch with it (CC jump, 1x 60
-fps, 3 s: 4 -> 11 bone frames). Off by default: the one-piece's bodice is crossed by the arms
-(docs/real_motion.md).
+fps, 3 s: 4 -> 11 bone frames). Off by default: the one-piece gets worse (the cartwheel at 1x 60 fps, bone
+frames 2 -> 15; docs/real_motion.md).
 """
 
 from __future__ import annotations
