@@ -102,6 +102,10 @@ PARAMETERS: tuple[Param, ...] = (
           "their share, points it would leave deeper in a volume stay; 0: off"),
     Param("strain_limit_tolerance", 0.02, "1", 0.0, 1.0,
           "the strain limiting stops early once no spring is longer than (1 + limit_ratio + this) x rest length"),
+    Param("strain_limit_slide", 0, "1", 0, 1,
+          "opt-in (1): the strain limiting's contact handling puts a point the correction pulled into a volume out "
+          "across the nearest surface, so that cloth pulled taut across a limb slides off it, in garments without "
+          "limb tubes (skirts, the one-piece); 0: back out on the side it came from at the substep's start"),
     Param("contact_mobility", 0.5, "1", 0.0, 1.0,
           "share of the strain limiting's correction a point in contact takes (0: contacts hold, 1: as free points)"),
     Param("tethers", 1, "1", 0, 1,
@@ -205,6 +209,7 @@ class SolverParams:
     limit_ratio: float
     strain_limit_iterations: int
     strain_limit_tolerance: float
+    strain_limit_slide: int
     contact_mobility: float
     tethers: int
     tether_slack: float

@@ -36,6 +36,7 @@ from ..collision import crossing
 from ..collision import kernels as collision_kernels
 from ..collision.collider import AXIS_PASSES
 from ..collision.kernels import parallel_twin
+from ..collision.response import MODE_STATIC
 from . import kernels
 from .motion_constraints import limit_distance
 
@@ -105,7 +106,8 @@ def advance_substeps(solver, frame, count: int, h: float, v0, a0, yaw_rate: floa
                 int(params.correction_iterations), float(params.limit_ratio),
                 bool(params.tethers), 1.0 + float(params.tether_slack), constrained, float(params.max_distance),
                 int(params.strain_limit_iterations), float(params.contact_mobility),
-                1.0 + params.limit_ratio + params.strain_limit_tolerance, float(solver.STRAIN_LIMIT_UNDONE))
+                1.0 + params.limit_ratio + params.strain_limit_tolerance, float(solver.STRAIN_LIMIT_UNDONE),
+                solver.limit_slides)
     contact = (collider._eps, collider._friction, collider._c_time, collider._switch_ratio, collider._mode,
                collider._edge_pinch_depth, collider._grip, collider._margin, collider._pinch_depth)
     pressing = collider.pressing
@@ -272,6 +274,9 @@ def _limit_strain(arrays, xs, x, v, inv_mass, h, contacts, correction, edges, tr
     springs, rest, starts = correction
     mobility, converged, undone = settings[11], settings[12], settings[13]
     eps, friction, switch_ratio, mode, grip = contact[0], contact[1], contact[3], contact[4], contact[6]
+    slides = settings[14]
+    start = x if slides else xs  # sliding: static, out across the nearest surface (``GarmentSolver.limit_slides``)
+    limit_mode = MODE_STATIC if slides else mode
     kernels.contact_weights(x, x_collision, inv_mass, mobility, strain_inv_mass)
     x_kept[:] = x
     v_kept[:] = v
@@ -281,8 +286,8 @@ def _limit_strain(arrays, xs, x, v, inv_mass, h, contacts, correction, edges, tr
     for _ in range(strain_iterations):
         if _correct(x, strain_inv_mass, springs, rest, starts, limit_ratio) <= converged:
             break
-        n_static += _handle_contacts(arrays, xs, x, v_scratch, inv_mass, h, eps, friction, grip, switch_ratio,
-                                      mode, contacts)
+        n_static += _handle_contacts(arrays, start, x, v_scratch, inv_mass, h, eps, friction, grip, switch_ratio,
+                                      limit_mode, contacts)
     if constrained:
         limit_distance(x, skinned0, skinned1, f1, max_distance, inv_mass)
     for i in range(x.shape[0]):

@@ -38,6 +38,15 @@ velocity (``v += dx / h``, as the rest of the step's corrections do); the collis
 then edges) runs once more, and a point it then leaves inside a volume (squeezed where two volumes
 meet) goes back to where it was; if a spring then ends longer than ``STRAIN_LIMIT_UNDONE`` and than
 the longest before, the substep keeps the state from before the limiting.
+
+Sliding, opt-in (``strain_limit_slide``): the strain limiting's contact handling is static, a point the
+correction pulled into a volume going out across the nearest surface, not back to the side it came from at the
+substep's start, so that cloth pulled taut across a limb slides off it rather than being carried round it
+(issue 11, the cartwheel's long skirt upside down over the chest and arm: springs 2.3-3.1x after every sweep's
+handling, 1.3x after its correction; the whole clip's worst p99 2.03 -> 1.07 at 1x 60 fps). A garment with
+limb tubes (trousers) keeps the side: slid across a thigh, its cloth takes the crotch with it (CC jump, 1x 60
+fps, 3 s: 4 -> 11 bone frames). Off by default: the one-piece gets worse (the cartwheel at 1x 60 fps, bone
+frames 2 -> 15; docs/real_motion.md).
 """
 
 from __future__ import annotations
@@ -198,6 +207,9 @@ class GarmentSolver:
     def set_params(self, params: SolverParams) -> None:
         self.params = params
         self.constants = derive_constants(self.model, params)
+        # the strain limiting's contact handling puts points out across the nearest surface (``strain_limit_slide``);
+        # a trouser leg keeps the side it came from: slid across a thigh, the cloth takes the crotch with it
+        self.limit_slides = bool(params.strain_limit_slide) and not self.model.limb_tubes
         self._layout = None  # its stiffnesses and dampings are the old ones
         if self.collider is not None:
             self.collider.set_params(params)
@@ -460,7 +472,8 @@ class GarmentSolver:
                 break
             # the contacts as constraints of the same projection: what the correction pulled into a volume goes
             # back out before the next sweep (its velocity response is not wanted: ``v += dx / h`` below)
-            collider.handle_contacts(self._x_start, x, self._v_scratch, const.inv_mass, h, self.state.contacts)
+            collider.handle_contacts(None if self.limit_slides else self._x_start, x, self._v_scratch, const.inv_mass,
+                                     h, self.state.contacts)
         if constraint is not None:
             limit_distance(x, *constraint, params.max_distance, const.inv_mass)
         v += (x - self._x_kept) / h
