@@ -418,6 +418,44 @@ def test_handle_all_equals_every_pair_handled_in_turn(seed):
     np.testing.assert_array_equal(vb, vr)
 
 
+@pytest.mark.parametrize("parallel", [False, True])
+def test_handle_contacts_equals_every_cached_pair_handled_in_turn(parallel):
+    """``handle_contacts`` goes through the points in runs (``kernels._RUN``; 400 points: six full runs and a
+    part): each point's cached volumes, within their bounding spheres, handled in turn with
+    ``response.handle_pair`` without the slide, bit for bit, on one thread and over numba's threads."""
+    from garment_sim_ros.collision import response
+    from garment_sim_ros.collision.kernels import _RUN
+
+    vols, pos0, rot0, pos1, rot1, _, _, _ = random_scene(7)
+    rng = np.random.default_rng(7)
+    xs = pos1[np.arange(400) % 3] + rng.uniform(-0.08, 0.08, (400, 3))  # in and about the volumes
+    x = xs + rng.normal(0.0, 0.03, xs.shape)
+    v = (x - xs) / H
+    assert len(x) % _RUN and len(x) > 2 * _RUN  # runs and a part run
+    c = Collider(VolumeSet(tuple(vols)), len(x), cache_size=3, parallel=parallel)
+    c.set_params(DEFAULT_PARAMS)
+    c.begin_frame(pos0, rot0, pos1, rot1)
+    c.begin_substep(0.0, 1.0)
+    contacts = c.new_contacts()
+    handle(c, xs, x, v, contacts=contacts)  # fills the cache
+    assert np.count_nonzero(contacts[:, 0] >= 0) > 200
+    moved = x + rng.normal(0.0, 0.02, x.shape)  # the length correction's pull
+    xb, vb = moved.copy(), v.copy()
+    c.static_hits = 0
+    c.handle_contacts(xs, xb, vb, np.ones(len(x)), H, contacts)
+    vol, xr, vr, hits = c.arrays, moved.copy(), v.copy(), 0
+    for i in range(len(x)):
+        for k in contacts[i]:
+            if k < 0 or np.linalg.norm(xr[i] - vol.pos1[k]) > vol.bounding_radii[k]:
+                continue
+            hits += response.handle_pair(vol, k, xs, xr, vr, i, H, c._eps, c._friction, c._grip, 0.0,
+                                         c._switch_ratio, c._mode)[0] != response.NO_HIT
+    ends = np.arange(_RUN - 1, len(x), _RUN)  # each run's last point
+    assert hits > 100 and c.static_hits == hits and np.any(xr[ends] != moved[ends])
+    np.testing.assert_array_equal(xb, xr)
+    np.testing.assert_array_equal(vb, vr)
+
+
 def test_broad_phase_rejects_far_pairs():
     from garment_sim_ros.collision import broad_phase
     vols, pos0, rot0, pos1, rot1, xs, x, v = random_scene(4)

@@ -27,6 +27,10 @@ _SEARCH_ITERATIONS = 60
 # no longer increments and decrements an atomic reference count per array argument, which was most of
 # handle_all's time (docs/benchmarks.md). A kernel that allocated would fail to compile, not misbehave.
 kernel = njit(cache=True, _nrt=False)
+# A kernel called per point, pair or edge from another, inlined in numba's IR into its callers: a call LLVM leaves
+# standing passes each array argument field by field (the volumes' bundle ~170 arguments), which cost more than
+# the work of a point it left (docs/benchmarks.md, "Calls per point").
+inlined_kernel = njit(cache=True, _nrt=False, inline="always")
 
 
 # ----------------------------------------------------------------------------- frames
@@ -151,7 +155,7 @@ def _unit_gradient(ax, ay, az, x, y, z):
     return 0.0, 0.0, 1.0
 
 
-@kernel
+@inlined_kernel
 def static_projection(kind, radii, cuts, planes, v, x, y, z):
     """Static handling geometry (memo Eq. 6-1, 6-3, 6-4) in the local frame.
 
@@ -175,7 +179,7 @@ def static_projection(kind, radii, cuts, planes, v, x, y, z):
     return True, sx, sy, sz, nx, ny, nz
 
 
-@kernel
+@inlined_kernel
 def _shape_projection(kind, radii, cuts, v, x, y, z):
     """``static_projection`` of the uncut shape (no contact planes)."""
     if kind == SPHERE:

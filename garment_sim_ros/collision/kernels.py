@@ -38,6 +38,7 @@ from .contact_planes import press
 from .geometry import (
     TINY,
     deepest_on_segment,
+    inlined_kernel,
     kernel,
     penetration_depth,
     rotate,
@@ -88,6 +89,21 @@ def substep_poses(arrays, frame_pos, frame_quat, f0, f1, pressing, clearance, ga
 
 
 # ----------------------------------------------------------------------------- drivers over points
+
+# The drivers hand their points to a per-point function in runs of this many, one call a run. A call from one
+# compiled function to another passes every array field by field (the volumes' bundle alone is ~170 arguments),
+# and LLVM did not inline the per-point functions: one such call per point was half of handle_all's time and
+# three quarters of handle_contacts' (docs/benchmarks.md, "Calls per point"). Inside a run the per-point
+# functions are inlined in numba's IR (``inline="always"``), which numba's parallel loop cannot take in its own
+# body: its reductions' analysis fails on the inlined loops.
+_RUN = 64
+
+
+@kernel
+def _runs(n_points):
+    """How many runs of ``_RUN`` points ``n_points`` make."""
+    return (n_points + _RUN - 1) // _RUN
+
 
 @kernel
 def _next_candidate(vol, xs, x, i, cache, any_cached, start):
@@ -143,7 +159,7 @@ def _record(scratch, i, start, count, capacity, v):
     return count
 
 
-@kernel
+@inlined_kernel
 def _handle_point_all(vol, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, mode, margin, cache,
                       scratch, first):
     """Point i against every volume, cached volumes first (temporal coherence), then rebuilds
@@ -230,8 +246,22 @@ def _handle_all(arrays, xs, x, vel, inv_mass, h, eps, friction, grip, c_time, sw
     reach_radii(vol, xs, x, inv_mass)
     n_static = 0
     n_dynamic = 0
+    for run in prange(_runs(x.shape[0])):  # the points are independent here: each touches its own rows only
+        s, d = _handle_run(vol, xs, x, vel, inv_mass, h, eps, friction, grip, c_time, switch_ratio, mode, margin,
+                           cache, scratch, run * _RUN, min(x.shape[0], (run + 1) * _RUN))
+        n_static += s
+        n_dynamic += d
+    return n_static, n_dynamic
+
+
+@kernel
+def _handle_run(vol, xs, x, vel, inv_mass, h, eps, friction, grip, c_time, switch_ratio, mode, margin, cache, scratch,
+                start, end):
+    """``handle_all`` of the points ``start:end``; (static hits, dynamic hits)."""
+    n_static = 0
+    n_dynamic = 0
     n_volumes = vol.kinds.shape[0]
-    for i in prange(x.shape[0]):  # the points are independent here: each touches its own rows only
+    for i in range(start, end):
         if inv_mass[i] == 0.0:
             continue
         # Most points have no cached volume and none within reach: one scan, in a loop without the handling's
@@ -249,7 +279,7 @@ def _handle_all(arrays, xs, x, vel, inv_mass, h, eps, friction, grip, c_time, sw
 handle_all, handle_all_parallel = serial_and_parallel(_handle_all)
 
 
-@kernel
+@inlined_kernel
 def _contacts_point(vol, xs, x, vel, i, h, eps, friction, grip, switch_ratio, mode, cache):
     """Point i against its cached volumes (``handle_contacts``); the number of hits."""
     pos1, bounding_radii = vol.pos1, vol.bounding_radii
@@ -278,7 +308,17 @@ def _handle_contacts(arrays, xs, x, vel, inv_mass, h, eps, friction, grip, switc
     full handling responds them. Returns the number of points moved out."""
     vol = VolumeArrays(*arrays)
     n_moved = 0
-    for i in prange(x.shape[0]):  # each point only touches its own row
+    for run in prange(_runs(x.shape[0])):  # each point only touches its own row
+        n_moved += _contacts_run(vol, xs, x, vel, inv_mass, h, eps, friction, grip, switch_ratio, mode, cache,
+                                 run * _RUN, min(x.shape[0], (run + 1) * _RUN))
+    return n_moved
+
+
+@kernel
+def _contacts_run(vol, xs, x, vel, inv_mass, h, eps, friction, grip, switch_ratio, mode, cache, start, end):
+    """``handle_contacts`` of the points ``start:end``; the number of hits."""
+    n_moved = 0
+    for i in range(start, end):
         if inv_mass[i] != 0.0:
             n_moved += _contacts_point(vol, xs, x, vel, i, h, eps, friction, grip, switch_ratio, mode, cache)
     return n_moved

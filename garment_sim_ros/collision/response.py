@@ -19,10 +19,9 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
 from .geometry import (
     entry,
+    inlined_kernel,
     kernel,
     penetration_depth,
     plane_gap,
@@ -87,7 +86,7 @@ _CUT_EXIT_SHARE = 0.5
 _ON_PLANE = 1e-9  # m: a static projection this near a contact plane went onto it
 
 
-@kernel
+@inlined_kernel
 def handle_pair(vol, v, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, mode):
     """Handle point ``i`` against volume ``v``; ``x``, ``vel`` updated in place; ``grip`` the position-level
     friction coefficient (``contact_friction``, see ``_respond``).
@@ -106,7 +105,7 @@ def handle_pair(vol, v, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ra
 
 # Inlined in numba's IR into every caller: left to LLVM, which did not inline it once ``handle_pair`` wrapped it,
 # handle_contacts ran 13 % slower (20 000 points, one thread, /tmp/w15h-micro.py).
-@njit(cache=True, _nrt=False, inline="always")
+@inlined_kernel
 def handle_local_pair(vol, v, x, vel, i, ax, ay, az, bx, by, bz, h, eps, friction, grip, c_time, switch_ratio,
                       mode):
     """``handle_pair`` given point i's local coordinates in volume v's frame: p0' = ``a`` (``xs[i]``, start
