@@ -153,6 +153,11 @@ PARAMETERS: tuple[Param, ...] = (
           "surface over the substep undone up to this x the depth it was pushed out by (all of it below: "
           "static); works where the velocity-level friction above cannot reach (contacts handled during the "
           "length correction); 0: off"),
+    Param("axial_friction", 0.5, "1", 0.0, 1.0,
+          "position-level friction along a limb's (or the torso's) bone: as contact_friction, for the slide along "
+          "the bone only, so that a limb moving along itself carries the cloth it presses on and a stretched spring "
+          "does not pull a ring it grips along the limb (a trouser leg up the shin); the slide around the limb is "
+          "left to the velocity-level friction; 0: off"),
     Param("contact_margin", 0.0, "m", 0.0, 0.05,
           "a volume stays in a point's contact cache while the point is within this of the volume's bounding "
           "sphere, so that the contact handling during the length correction keeps a point resting just outside "
@@ -228,6 +233,7 @@ class SolverParams:
     max_glitch_time: float
     friction: float
     contact_friction: float
+    axial_friction: float
     contact_margin: float
     collision_epsilon: float
     contact_time_fraction: float
@@ -278,6 +284,7 @@ PRESETS: dict[str, SolverParams] = {
         strain_limit_iterations=0,  # beyond the memo: its experiments had neither
         tethers=0,
         contact_planes=0,  # beyond the memo: its volumes are rigid
+        axial_friction=0.0,  # beyond the memo: its friction is the velocity-level law only
     ),
 }
 

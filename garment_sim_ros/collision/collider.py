@@ -79,7 +79,7 @@ class Collider:
     # ------------------------------------------------------------------ set-up per run/frame/substep
     def set_params(self, params: SolverParams) -> None:
         self._friction = float(params.friction)
-        self._grip = float(params.contact_friction)
+        self._grip = (float(params.contact_friction), float(params.axial_friction))
         self._margin = float(params.contact_margin)
         self._eps = float(params.collision_epsilon)
         self._pinch_depth = float(params.pinch_depth)

@@ -88,7 +88,7 @@ def _fall(start, velocity, h, first_step, duration, mode, stop_at_first_hit, fri
         _ellipsoid_pose(t0 + step, vol.pos1, vol.rot1)
         xs[0] = x[0]
         x[0] += step * vel[0]
-        code, alpha, lx, ly, lz = response.handle_pair(vol, 0, xs, x, vel, 0, step, 0.0, friction, 0.0, c_time,
+        code, alpha, lx, ly, lz = response.handle_pair(vol, 0, xs, x, vel, 0, step, 0.0, friction, (0.0, 0.0), c_time,
                                                        0.0, mode)
         steps += 1
         if code != response.NO_HIT and np.isnan(hit_time):
