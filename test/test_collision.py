@@ -398,7 +398,8 @@ def reference_handle_all(collider, xs, x, v):
             hits += response.handle_pair(vol, k, xs, x, v, i, H, c._eps, c._friction, c._grip, c._c_time,
                                          c._switch_ratio, c._mode)[0] != response.NO_HIT
         for _ in range(4 if hits else 0):  # no friction along the bones there: the way out may be along one
-            moved = [response.handle_pair(vol, k, xs, x, v, i, H, c._eps, c._friction, (c._grip[0], 0.0), c._c_time,
+            settle_grip = (c._grip[0], 0.0, c._grip[2])
+            moved = [response.handle_pair(vol, k, xs, x, v, i, H, c._eps, c._friction, settle_grip, c._c_time,
                                           c._switch_ratio, response.MODE_STATIC)[0] != response.NO_HIT
                      for k in range(len(vol.kinds))]
             if not any(moved):

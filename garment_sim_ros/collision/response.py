@@ -191,14 +191,14 @@ def _respond(vol, v, x, vel, i, ax, ay, az, bx, by, bz, sx, sy, sz, nx, ny, nz, 
     point's slide relative to the surface over the substep -- from where it started (``xs[i]``, start pose) to
     the contact point (end pose), both in the volume's frame -- is undone up to ``grip[0]`` times the depth it
     was pushed out by along the normal: all of it below that (static), that much of it above (kinetic); the
-    tangential velocity relative to the surface keeps the same share. Then what is left of that slide along the
-    volume's axis (local z: a limb's or the torso's bone, the pelvis' up; in the tangent plane) is undone up to
-    ``grip[1]`` times the depth, and the relative velocity along the axis keeps that share: a limb moving along
-    itself carries the cloth it presses on, and the length correction does not slide a ring it grips up the limb
-    (issue 11, d). The slide runs to the contact point, as the isotropic one's: measured from ``b`` instead (the
-    point's own move, not the projection's), a swept hit's slide past the entry was undone too, and the
-    trousers on cmu_131 went to p99 6.1 and the guard. On an ellipsoid, whose projection keeps z, the
-    projection's own slide along the axis then counts, and is undone as the rest of it.
+    tangential velocity relative to the surface keeps the same share. Then, for the points of a limb tube on the
+    limbs it goes round (bit v of ``grip[2][i]``, ``Collider.grip_tubes``), what is left of that slide along the
+    volume's axis (local z, the bone's, from the joint down the limb; in the tangent plane) is undone up to
+    ``grip[1]`` times the depth where it runs toward the limb's root, and the relative velocity along the axis
+    keeps that share: a limb moving along itself carries its trouser leg, and the length correction does not
+    slide a ring it grips up the limb; down it the ring slides freely (issue 11 (d), docs/real_motion.md). The
+    slide runs to the contact point, as the isotropic one's: measured from ``b`` instead (the point's own move),
+    a swept hit's slide past the entry was undone too.
     """
     cx, cy, cz = sx + eps * nx, sy + eps * ny, sz + eps * nz
     kept = 1.0  # share of the tangential slide (and relative tangential velocity) the position friction leaves
@@ -214,10 +214,10 @@ def _respond(vol, v, x, vel, i, ax, ay, az, bx, by, bz, sx, sy, sz, nx, ny, nz, 
             kept = max(0.0, 1.0 - grip[0] * depth / slide)
             cx, cy, cz = cx - (1.0 - kept) * tx, cy - (1.0 - kept) * ty, cz - (1.0 - kept) * tz
         axis = math.sqrt(ex * ex + ey * ey + ez * ez)  # 0 on a cap's pole, where the normal is the axis
-        if depth > 0.0 and grip[1] > 0.0 and axis > 1e-9:
+        if depth > 0.0 and grip[1] > 0.0 and axis > 1e-9 and (grip[2][i] >> v) & 1:
             ex, ey, ez = ex / axis, ey / axis, ez / axis
             slide = kept * (tx * ex + ty * ey + tz * ez)
-            if slide != 0.0:
+            if slide < 0.0:  # toward the limb's root (local z runs from the joint down the limb)
                 kept_axial = max(0.0, 1.0 - grip[1] * depth / abs(slide))
                 cx, cy, cz = (cx - (1.0 - kept_axial) * slide * ex, cy - (1.0 - kept_axial) * slide * ey,
                               cz - (1.0 - kept_axial) * slide * ez)
