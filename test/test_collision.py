@@ -203,6 +203,26 @@ def test_position_friction_holds_a_point_on_a_slope(grip):
         assert moved > 0.05
 
 
+@pytest.mark.parametrize("limb_moves, gripped, carried", [
+    (0.004, True, True),  # the limb slides down under its tube's point: it takes the point along
+    (-0.004, True, False),  # up under it (the point slides down the limb): free, the velocity-level law only
+    (0.004, False, False),  # a point of no tube round this limb (a skirt, a waistband): free
+])
+def test_friction_along_a_limb_holds_its_tube_against_a_slide_toward_the_root(limb_moves, gripped, carried):
+    """``axial_friction``: a tube's point pressed 5 mm into its limb (local z runs from the joint down the limb)
+    keeps its place along the limb up to the coefficient x that depth (1 x 5 mm here, the slide 4 mm) where it
+    would slide toward the limb's root; down the limb, or off a tube, it slides."""
+    limb = Volume("limb", CAPSULE, "f", (0.05, 0.05, 0.1))
+    c = make_collider([limb], 1, [0, 0, 0], pos1=[0, 0, limb_moves], collision_mode="static", collision_epsilon=0.0,
+                      friction=0.0, axial_friction=1.0)
+    if gripped:
+        c.grip_tubes({"leg": ("limb",)}, {"leg": [np.array([0])]})
+    x, v = handle(c, [0.051, 0.0, 0.0], [0.045, 0.0, 0.0])
+    assert x[0, 0] == pytest.approx(0.05, abs=1e-9)  # out on the surface either way
+    assert x[0, 2] == pytest.approx(limb_moves if carried else 0.0, abs=1e-9)
+    assert v[0, 2] == pytest.approx(limb_moves / H if carried else 0.0, abs=1e-9)
+
+
 # ----------------------------------------------------------------------------- dynamic handling
 
 def exact_translation_hit(p0, u, c0, V, R, radii, h):
