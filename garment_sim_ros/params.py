@@ -157,6 +157,11 @@ PARAMETERS: tuple[Param, ...] = (
           "surface over the substep undone up to this x the depth it was pushed out by (all of it below: "
           "static); works where the velocity-level friction above cannot reach (contacts handled during the "
           "length correction); 0: off"),
+    Param("axial_friction", 0.0, "1", 0.0, 1.0,
+          "opt-in: position-level friction along a limb's bone for its limb tube (a trouser leg on the thigh and "
+          "the shin): as contact_friction, for a slide toward the limb's root only, so that a limb moving along "
+          "itself carries its trouser leg and a stretched spring does not pull a ring it grips up the limb; a ring "
+          "slides down freely; 0: off (docs/real_motion.md: it stops the climb, the first frames stretch more)"),
     Param("contact_margin", 0.0, "m", 0.0, 0.05,
           "a volume stays in a point's contact cache while the point is within this of the volume's bounding "
           "sphere, so that the contact handling during the length correction keeps a point resting just outside "
@@ -234,6 +239,7 @@ class SolverParams:
     max_glitch_time: float
     friction: float
     contact_friction: float
+    axial_friction: float
     contact_margin: float
     collision_epsilon: float
     contact_time_fraction: float

@@ -104,7 +104,7 @@ def test_separating_point_keeps_its_velocity():
 def test_ellipsoid_keeps_z_and_scales_xy_onto_the_cross_section():
     radii = (0.08, 0.06, 0.2)
     e = Volume("e", ELLIPSOID, "f", radii, cut=(-0.15, 0.15))
-    c = make_collider([e], 1, [0, 0, 0], collision_mode="static", collision_epsilon=0.0)
+    c = make_collider([e], 1, [0, 0, 0], collision_mode="static", collision_epsilon=0.0, axial_friction=0.0)
     x, _ = handle(c, [0.02, 0.03, 0.1], [0.02, 0.03, 0.1])
     # Eq. 6-4 by hand: s = sqrt(1 - (0.1/0.2)^2) / sqrt((0.02/0.08)^2 + (0.03/0.06)^2)
     s = math.sqrt(0.75) / math.sqrt(0.25 ** 2 + 0.5 ** 2)
@@ -114,7 +114,7 @@ def test_ellipsoid_keeps_z_and_scales_xy_onto_the_cross_section():
 def test_ellipsoid_eps_is_along_the_surface_normal():
     radii = np.array([0.08, 0.06, 0.2])
     e = Volume("e", ELLIPSOID, "f", tuple(radii))
-    c = make_collider([e], 1, [0, 0, 0], collision_mode="static", collision_epsilon=0.004)
+    c = make_collider([e], 1, [0, 0, 0], collision_mode="static", collision_epsilon=0.004, axial_friction=0.0)
     x, _ = handle(c, [0.02, 0.03, 0.1], [0.02, 0.03, 0.1])
     s = math.sqrt(0.75) / math.sqrt(0.25 ** 2 + 0.5 ** 2)
     surface = np.array([0.02 * s, 0.03 * s, 0.1])
@@ -130,7 +130,7 @@ def test_ellipsoid_cut_ends_are_respected():
     np.testing.assert_array_equal(x[0], p)
     assert kept.penetration_depths(np.array([p]))[0] == 0.0
     handled = make_collider([Volume("e", ELLIPSOID, "f", (0.08, 0.06, 0.2), cut=(-0.15, 0.18))], 1, [0, 0, 0],
-                            collision_mode="static", collision_epsilon=0.0)
+                            collision_mode="static", collision_epsilon=0.0, axial_friction=0.0)
     x, _ = handle(handled, p, p)
     assert x[0, 2] == pytest.approx(0.17) and x[0, 0] > 0.01
 
@@ -167,7 +167,7 @@ def position_friction(start, end, centre, r, grip):
                                           (0.2, False)])  # kinetic: 0.4 mm of the slide undone
 def test_position_friction_undoes_the_slide_up_to_grip_times_depth(grip, sticks):
     c = make_collider([sphere(0.1)], 1, [0, 0, 0], collision_mode="static", collision_epsilon=0.0, friction=0.0,
-                      contact_friction=grip)
+                      contact_friction=grip, axial_friction=0.0)
     start, end = np.array([0.0, 0.0, 0.1]), np.array([0.001, 0.0, 0.098])
     x, v = handle(c, start, end, v=[0.1, 0.0, -0.2])
     np.testing.assert_allclose(x[0], position_friction(start, end, np.zeros(3), 0.1, grip), atol=1e-12)
@@ -187,7 +187,8 @@ def test_position_friction_holds_a_point_on_a_slope(grip):
     step, handle, velocity from the positions): tan 20 deg = 0.36 < 0.5 holds it; without the position
     friction, and without the velocity-level one (0 here), it slides off."""
     r, angle, h = 0.1, math.radians(20.0), 0.001
-    c = make_collider([sphere(r)], 1, [0, 0, 0], collision_epsilon=0.0, friction=0.0, contact_friction=grip)
+    c = make_collider([sphere(r)], 1, [0, 0, 0], collision_epsilon=0.0, friction=0.0, contact_friction=grip,
+                      axial_friction=0.0)
     x = r * np.array([[math.sin(angle), 0.0, math.cos(angle)]])
     v, contacts = np.zeros((1, 3)), c.new_contacts()
     for _ in range(1000):
@@ -200,6 +201,26 @@ def test_position_friction_holds_a_point_on_a_slope(grip):
         assert moved < 1e-4
     else:
         assert moved > 0.05
+
+
+@pytest.mark.parametrize("limb_moves, gripped, carried", [
+    (0.004, True, True),  # the limb slides down under its tube's point: it takes the point along
+    (-0.004, True, False),  # up under it (the point slides down the limb): free, the velocity-level law only
+    (0.004, False, False),  # a point of no tube round this limb (a skirt, a waistband): free
+])
+def test_friction_along_a_limb_holds_its_tube_against_a_slide_toward_the_root(limb_moves, gripped, carried):
+    """``axial_friction``: a tube's point pressed 5 mm into its limb (local z runs from the joint down the limb)
+    keeps its place along the limb up to the coefficient x that depth (1 x 5 mm here, the slide 4 mm) where it
+    would slide toward the limb's root; down the limb, or off a tube, it slides."""
+    limb = Volume("limb", CAPSULE, "f", (0.05, 0.05, 0.1))
+    c = make_collider([limb], 1, [0, 0, 0], pos1=[0, 0, limb_moves], collision_mode="static", collision_epsilon=0.0,
+                      friction=0.0, axial_friction=1.0)
+    if gripped:
+        c.grip_tubes({"leg": ("limb",)}, {"leg": [np.array([0])]})
+    x, v = handle(c, [0.051, 0.0, 0.0], [0.045, 0.0, 0.0])
+    assert x[0, 0] == pytest.approx(0.05, abs=1e-9)  # out on the surface either way
+    assert x[0, 2] == pytest.approx(limb_moves if carried else 0.0, abs=1e-9)
+    assert v[0, 2] == pytest.approx(limb_moves / H if carried else 0.0, abs=1e-9)
 
 
 # ----------------------------------------------------------------------------- dynamic handling
@@ -226,7 +247,7 @@ def test_dynamic_detection_is_exact_for_pure_translation():
     p0 = c0 + R @ np.array([0.0, 0.2, 0.05])
     u = np.array([1.0, -4.0, 1.0])
     col = make_collider([Volume("e", ELLIPSOID, "f", tuple(radii))], 1, c0, [q], c0 + V * h, [q],
-                        collision_mode="dynamic", collision_epsilon=0.0, contact_time_fraction=0.0)
+                        collision_mode="dynamic", collision_epsilon=0.0, contact_time_fraction=0.0, axial_friction=0.0)
     x, _ = handle(col, p0, p0 + u * h, h=h)
     t, expected = exact_translation_hit(p0, u, c0, V, R, radii, h)
     np.testing.assert_allclose(x[0], expected, atol=1e-12)
@@ -396,8 +417,9 @@ def reference_handle_all(collider, xs, x, v):
         for k in range(len(vol.kinds)):
             hits += response.handle_pair(vol, k, xs, x, v, i, H, c._eps, c._friction, c._grip, c._c_time,
                                          c._switch_ratio, c._mode)[0] != response.NO_HIT
-        for _ in range(4 if hits else 0):
-            moved = [response.handle_pair(vol, k, xs, x, v, i, H, c._eps, c._friction, c._grip, c._c_time,
+        for _ in range(4 if hits else 0):  # no friction along the bones there: the way out may be along one
+            settle_grip = (c._grip[0], 0.0, c._grip[2])
+            moved = [response.handle_pair(vol, k, xs, x, v, i, H, c._eps, c._friction, settle_grip, c._c_time,
                                           c._switch_ratio, response.MODE_STATIC)[0] != response.NO_HIT
                      for k in range(len(vol.kinds))]
             if not any(moved):

@@ -201,6 +201,7 @@ class GarmentSolver:
             from ..collision.collider import Collider
 
             self.collider = Collider(volumes, n, cache_size=min(2, len(volumes)))
+            self.collider.grip_tubes(model.limb_tubes, model.rings)
         self.state = ClothState(model.rest_positions.copy(), np.zeros((n, 3)), self._new_contacts())
         self.set_params(params)
 

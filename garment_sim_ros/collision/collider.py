@@ -59,6 +59,9 @@ class Collider:
         self._frame_quat[:, :, 3] = 1.0
         self._scratch = np.zeros((self.n_points, 2 * self.cache_size), dtype=np.int64)  # handle_all's
         self._depths = np.zeros(self.n_points)
+        # per point, a bit per volume: the volumes that grip it along their axes (``axial_friction``,
+        # ``grip_tubes``); none by default
+        self._grips = np.zeros(self.n_points, dtype=np.int64)
         if parallel is None:
             parallel = self.n_points >= PARALLEL_MIN_POINTS
         self.parallel = bool(parallel)
@@ -73,6 +76,20 @@ class Collider:
         self.set_params(DEFAULT_PARAMS)
         self._frame_started = False
 
+    def grip_tubes(self, limb_tubes: dict, rings: dict) -> None:
+        """Let the limbs grip their tubes along their bones (``axial_friction``): ``limb_tubes`` maps a tube
+        (a trouser leg) to the names of the volumes it goes round (``ClothModel.limb_tubes``), ``rings`` a tube to
+        its rings' point indices (``ClothModel.rings``). Other cloth a limb touches (a skirt, a waistband a
+        forearm leaves along itself) slides along it as before."""
+        names = self.volumes.names()
+        if len(names) > 63:
+            raise ValueError(f"grip_tubes: at most 63 volumes (a bit each), got {len(names)}")
+        self._grips[:] = 0
+        for tube, segments in limb_tubes.items():
+            bits = sum(1 << names.index(s) for s in segments if s in names)
+            for ring in rings[tube]:
+                self._grips[np.asarray(ring, dtype=np.int64)] |= bits
+
     def new_contacts(self) -> np.ndarray:
         """An empty contact cache: (n_points, cache_size) int64 volume indices, most recent first, -1 empty."""
         return np.full((self.n_points, self.cache_size), -1, dtype=np.int64)
@@ -80,7 +97,7 @@ class Collider:
     # ------------------------------------------------------------------ set-up per run/frame/substep
     def set_params(self, params: SolverParams) -> None:
         self._friction = float(params.friction)
-        self._grip = float(params.contact_friction)
+        self._grip = (float(params.contact_friction), float(params.axial_friction), self._grips)
         self._margin = float(params.contact_margin)
         self._eps = float(params.collision_epsilon)
         self._pinch_depth = float(params.pinch_depth)

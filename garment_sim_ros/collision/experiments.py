@@ -33,6 +33,8 @@ from . import response
 from .volume_arrays import MAX_PLANES, VolumeArrays
 from .volumes import ELLIPSOID
 
+_NO_GRIP = (0.0, 0.0, np.zeros(1, dtype=np.int64))  # the memo's friction alone (``response._respond``'s grip)
+
 RADII = (0.08, 0.08, 0.2)  # m: a thigh
 RISE_SPEED = 0.1  # m/s, up
 SPIN_RATE = math.radians(90.0)  # rad/s, counter-clockwise in the x-z plane
@@ -88,7 +90,7 @@ def _fall(start, velocity, h, first_step, duration, mode, stop_at_first_hit, fri
         _ellipsoid_pose(t0 + step, vol.pos1, vol.rot1)
         xs[0] = x[0]
         x[0] += step * vel[0]
-        code, alpha, lx, ly, lz = response.handle_pair(vol, 0, xs, x, vel, 0, step, 0.0, friction, 0.0, c_time,
+        code, alpha, lx, ly, lz = response.handle_pair(vol, 0, xs, x, vel, 0, step, 0.0, friction, _NO_GRIP, c_time,
                                                        0.0, mode)
         steps += 1
         if code != response.NO_HIT and np.isnan(hit_time):

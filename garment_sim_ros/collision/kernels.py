@@ -206,13 +206,16 @@ def _handle_point_all(vol, xs, x, vel, i, h, eps, friction, grip, c_time, switch
         # from the point's current position: a hit has moved it
         v, ax, ay, az, bx, by, bz = _next_candidate(vol, xs, x, i, cache, any_cached, v + 1)
     # Volumes overlap at the joints: being pushed out of one can push a point into its
-    # neighbour (the crotch between pelvis and thigh). A few static passes settle it.
+    # neighbour (the crotch between pelvis and thigh). A few static passes settle it, without the friction
+    # along the bones: the way out of a squeeze is often along them, and the grip would hold the point inside.
+    settle_grip = (grip[0], 0.0, grip[2])
     for _ in range(_SETTLE_PASSES if n_static + n_dynamic > 0 else 0):
         moved = False
         for v in range(n_volumes):
             if outside_bounding_sphere(vol, v, x, i):
                 continue
-            code = handle_pair(vol, v, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, MODE_STATIC)[0]
+            code = handle_pair(vol, v, xs, x, vel, i, h, eps, friction, settle_grip, c_time, switch_ratio,
+                               MODE_STATIC)[0]
             if code != NO_HIT:
                 moved = True
                 n_static += 1

@@ -89,7 +89,7 @@ _ON_PLANE = 1e-9  # m: a static projection this near a contact plane went onto i
 @inlined_kernel
 def handle_pair(vol, v, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, mode):
     """Handle point ``i`` against volume ``v``; ``x``, ``vel`` updated in place; ``grip`` the position-level
-    friction coefficient (``contact_friction``, see ``_respond``).
+    friction coefficients (``contact_friction``, ``axial_friction``; see ``_respond``).
 
     ``xs[i]`` is the point at the substep start, ``x[i]`` at its end. Returns
     ``(code, alpha, lx, ly, lz)``: NO_HIT / STATIC_HIT / DYNAMIC_HIT, the collision time
@@ -183,26 +183,43 @@ def _respond(vol, v, x, vel, i, ax, ay, az, bx, by, bz, sx, sy, sz, nx, ny, nz, 
     is relative to the surface, since sitting at the end pose already carries the point along;
     the surface velocity is the one of the volume's material point at the contact.
 
-    ``grip`` > 0: position-level friction (Macklin et al. 2014, "Unified particle physics", §6.1), as the
-    velocity-level law above cannot be: a point the length correction's contact handling put back out is
-    outside when the full handling responds velocities, and its velocity is then the corrected positions'
-    (Eq. 5-2), so the Coulomb response never reaches it (the drape's sheet slid off the sphere). The point's
-    slide relative to the surface over the substep -- from where it started (``xs[i]``, start pose) to the
-    contact point (end pose), both in the volume's frame -- is undone up to ``grip`` times the depth it was
-    pushed out by along the normal: all of it below that (static), that much of it above (kinetic); the
-    tangential velocity relative to the surface keeps the same share.
+    ``grip`` (isotropic, along the axis): position-level friction (Macklin et al. 2014, "Unified particle
+    physics", §6.1), as the velocity-level law above cannot be: a point the length correction's contact handling
+    put back out is outside when the full handling responds velocities, and its velocity is then the corrected
+    positions' (Eq. 5-2), so the Coulomb response never reaches it (the drape's sheet slid off the sphere). The
+    point's slide relative to the surface over the substep -- from where it started (``xs[i]``, start pose) to
+    the contact point (end pose), both in the volume's frame -- is undone up to ``grip[0]`` times the depth it
+    was pushed out by along the normal: all of it below that (static), that much of it above (kinetic); the
+    tangential velocity relative to the surface keeps the same share. Then, for the points of a limb tube on the
+    limbs it goes round (bit v of ``grip[2][i]``, ``Collider.grip_tubes``), what is left of that slide along the
+    volume's axis (local z, the bone's, from the joint down the limb; in the tangent plane) is undone up to
+    ``grip[1]`` times the depth where it runs toward the limb's root, and the relative velocity along the axis
+    keeps that share: a limb moving along itself carries its trouser leg, and the length correction does not
+    slide a ring it grips up the limb; down it the ring slides freely (issue 11 (d), docs/real_motion.md). The
+    slide runs to the contact point, as the isotropic one's: measured from ``b`` instead (the point's own move),
+    a swept hit's slide past the entry was undone too.
     """
     cx, cy, cz = sx + eps * nx, sy + eps * ny, sz + eps * nz
     kept = 1.0  # share of the tangential slide (and relative tangential velocity) the position friction leaves
-    if grip > 0.0:
+    kept_axial = 1.0  # and then of what is left of it along the axis
+    ex, ey, ez = -nz * nx, -nz * ny, 1.0 - nz * nz  # the axis in the tangent plane, unnormalised
+    if grip[0] > 0.0 or grip[1] > 0.0:
         depth = (cx - bx) * nx + (cy - by) * ny + (cz - bz) * nz
         dx, dy, dz = cx - ax, cy - ay, cz - az
         along = dx * nx + dy * ny + dz * nz
         tx, ty, tz = dx - along * nx, dy - along * ny, dz - along * nz
         slide = math.sqrt(tx * tx + ty * ty + tz * tz)
-        if depth > 0.0 and slide > 0.0:
-            kept = max(0.0, 1.0 - grip * depth / slide)
+        if depth > 0.0 and slide > 0.0 and grip[0] > 0.0:
+            kept = max(0.0, 1.0 - grip[0] * depth / slide)
             cx, cy, cz = cx - (1.0 - kept) * tx, cy - (1.0 - kept) * ty, cz - (1.0 - kept) * tz
+        axis = math.sqrt(ex * ex + ey * ey + ez * ez)  # 0 on a cap's pole, where the normal is the axis
+        if depth > 0.0 and grip[1] > 0.0 and axis > 1e-9 and (grip[2][i] >> v) & 1:
+            ex, ey, ez = ex / axis, ey / axis, ez / axis
+            slide = kept * (tx * ex + ty * ey + tz * ez)
+            if slide < 0.0:  # toward the limb's root (local z runs from the joint down the limb)
+                kept_axial = max(0.0, 1.0 - grip[1] * depth / abs(slide))
+                cx, cy, cz = (cx - (1.0 - kept_axial) * slide * ex, cy - (1.0 - kept_axial) * slide * ey,
+                              cz - (1.0 - kept_axial) * slide * ez)
     svx, svy, svz = surface_velocity(vol, v, cx, cy, cz, h)
     wnx, wny, wnz = rotate(vol.rot1, v, nx, ny, nz)
     rx, ry, rz = respond_velocity(vel[i, 0], vel[i, 1], vel[i, 2], svx, svy, svz, wnx, wny, wnz, friction)
@@ -210,6 +227,10 @@ def _respond(vol, v, x, vel, i, ax, ay, az, bx, by, bz, sx, sy, sz, nx, ny, nz, 
         rn = rx * wnx + ry * wny + rz * wnz
         rx, ry, rz = (rn * wnx + kept * (rx - rn * wnx), rn * wny + kept * (ry - rn * wny),
                       rn * wnz + kept * (rz - rn * wnz))
+    if kept_axial < 1.0:
+        wex, wey, wez = rotate(vol.rot1, v, ex, ey, ez)
+        re = (1.0 - kept_axial) * (rx * wex + ry * wey + rz * wez)
+        rx, ry, rz = rx - re * wex, ry - re * wey, rz - re * wez
     px, py, pz = to_world(vol.pos1, vol.rot1, v, cx, cy, cz)
     x[i, 0] = px + slide_time * rx
     x[i, 1] = py + slide_time * ry
