@@ -181,9 +181,10 @@ PARAMETERS: tuple[Param, ...] = (
           "the same, into a volume that may be pressed against the bone's (``contact_planes``: a forearm "
           "on the hip or the thigh) or that meets it at a joint (the forearm at the upper arm's elbow); the "
           "point handling after the bones' takes such a point out again"),
-    Param("edge_pinch_depth", 0.0, "m", 0.0, 0.1,
-          "opt-in: an edge a limb cuts stays cut when moving it out would put an end deeper than this into "
-          "another volume (a thigh against the belly); 0: off, edges always move out"),
+    Param("edge_pinch_depth", 0.01, "m", 0.0, 0.1,
+          "an edge a limb cuts stays cut when moving it out would put an end deeper than this into another "
+          "volume (a thigh against the belly, the trousers' crotch between the pelvis and the thighs): contact "
+          "wins; 0: off, edges always move out"),
     Param("contact_planes", 1, "1", 0, 1,
           "1: body volumes disjoint in the canonical pose (or round bones that share no joint) that overlap in "
           "motion, or come closer than the cloth needs (a forearm on the hip), meet on a contact plane, the "

@@ -310,7 +310,7 @@ def test_an_edge_cut_by_a_limb_pressed_into_the_belly_stays_in_the_pinch(edge_pi
     """The edge through the shin as above, came from +x, where a belly (a 20 cm sphere) presses against the
     shin: back out on its side, its ends would be 11 mm inside the belly. Past ``pinch_depth`` contact wins
     and the edge stays where it is (a thigh raised against the belly, CC cartwheel: edges moved 10-19 cm
-    from one volume into the other threw the skirt between them); allowed deeper, or off (0, the default),
+    from one volume into the other threw the skirt between them); allowed deeper, or off (0),
     it goes out of the shin."""
     belly_centre = np.array([0.22, 0.0, 0.0])
     collider = Collider(VolumeSet((Volume("shin", ELLIPSOID, "f", (0.05, 0.05, 0.3)),

@@ -349,12 +349,12 @@ def handle_edges(arrays, xs, x, inv_mass, edges, rest_lengths, edge_pinch_depth)
     The side is the one the edge came from when that point of the edge was clear of the volume at the
     substep's start (``xs``, start poses ``pos0``/``rot0``), as the dynamic point handling does -- a
     limb moving further than its radius in one substep can pass an edge's middle past its axis;
-    else the nearer one. Opt-in (``edge_pinch_depth`` m > 0): in a pinch -- the move would put an end
+    else the nearer one. In a pinch (``edge_pinch_depth`` m > 0; 0: off) -- the move would put an end
     deeper than that into another volume -- the edge stays (contact over crossing, as
     ``crossing.handle_axes``): a thigh raised against the belly (CC cartwheel, issue 11) overlaps the
     torso's volume by 3-7 cm, and edges moved out of one into the other threw the skirt between them
-    10-19 cm a substep, past the guard's stretch. Off by default: the thigh then leaves the trousers'
-    leg through the edges left (README, "Real motion"). Returns the number of edges moved.
+    10-19 cm a substep, past the guard's stretch; the trousers' crotch between the pelvis and the thighs
+    (CC jump at 2x) was thrown 14-21 cm a substep, across the thigh's bone. Returns the number of edges moved.
     """
     return _handle_edge_run(arrays, xs, x, inv_mass, edges, rest_lengths, 0, edges.shape[0], edge_pinch_depth)
 
