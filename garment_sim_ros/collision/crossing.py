@@ -15,7 +15,8 @@ go to the side of the bone its attached corners are on (``_attached_side``; a fo
 jump: the skirt no longer stays caught on it, issue 11). A triangle the bone still crosses at the substep's
 start (caught) is part of one sheet whose edge is far: moved across the bone it only passes the crossing to a
 neighbour. Where the limb's end is a free wrist, it goes off the bone past that end instead (CC jump: the
-band row caught on the forearm after the hand left the hip, 11 frames on each garment before).
+band row caught on the forearm after the hand left the hip, 11 frames on each garment before); nearer the bone's
+root end (a shoulder) lying outside the other volumes, past that end (cartwheel, long skirt: the upper arm).
 
 Priority in a pinch (a forearm on the hip, an arm against the chest: two volumes overlap and
 squeeze the cloth): the cloth goes no further than where the other volume begins (``_room``), and a
@@ -390,7 +391,8 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
     (unit local direction (ux, uy), ``_side_direction``): the least move that takes the bone out of the triangle,
     seen along the bone; a corner already on that side stays. An approaching velocity relative to v's surface is
     removed. A triangle crossed at the substep's start already (caught) goes past the end when the limb's end is
-    free (``_end_free``), its attached corners staying. A triangle with an attached corner (it rides on the body)
+    free (``_end_free``), its attached corners staying; else, crossed nearer the root end, past that end when it
+    is clear of the other volumes (``_root_free``). A triangle with an attached corner (it rides on the body)
     goes to the side its attached corners are on (``_attached_side``) when the bone reached it in this substep;
     one caught already (its limb's end inside another volume), or whose attached corners straddle the bone, is left
     as it is, and so is one that would end with a corner deeper than ``vol.pinch_depths`` allows in another
