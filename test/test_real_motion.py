@@ -130,6 +130,18 @@ def test_a_skirt_flung_over_the_elbow_does_not_stay_on_the_upper_arm():
     assert row["targets"]["a"] and row["structural_stretch_max"] < 1.5, row["structural_stretch_max"]
 
 
+def test_a_skirt_caught_on_the_upper_arm_at_the_shoulder_goes_off_past_the_shoulder():
+    """Issue 11 (b), the cartwheel, long skirt, 1x at 60 fps: 1.98-2.13 s the right upper arm's bone is through the
+    skirt 2-33 % down it, next to the shoulder, which lies outside the chest's volume (7 mm from it). Only a free
+    wrist end let caught cloth off past it: moved across the bone, each caught triangle passed the crossing to
+    its neighbour and back (all 16 passes of ``crossing.handle_axes`` moving two triangles), 10 frames with a bone
+    through, a spring 6-7 rest lengths long. Caught nearer a root end that is clear of the other volumes, the cloth
+    goes off past that end (``crossing._root_free``): none."""
+    row = evaluate_run(Run(str(DATA / "cc_cmu_05_06_dance_cartwheel_pirouette.bvh"), "long_skirt", 1.0, 60.0, 2.2))
+    assert row["frames"] == 132
+    assert row["bones_frames"] == 0, row["bones_frames"]
+
+
 def test_cloth_moved_off_a_bone_into_a_pressed_volume_does_not_stay_there():
     """Issue 11 (a), the CC jump, trousers, 1x at 60 fps, 3 s: the right hand at the hip from 1.08 s. Corners
     the bones' handling puts up to ``pressed_pinch_depth`` into the pelvis stayed there when the bones had the

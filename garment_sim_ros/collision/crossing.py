@@ -15,7 +15,8 @@ go to the side of the bone its attached corners are on (``_attached_side``; a fo
 jump: the skirt no longer stays caught on it, issue 11). A triangle the bone still crosses at the substep's
 start (caught) is part of one sheet whose edge is far: moved across the bone it only passes the crossing to a
 neighbour. Where the limb's end is a free wrist, it goes off the bone past that end instead (CC jump: the
-band row caught on the forearm after the hand left the hip, 11 frames on each garment before).
+band row caught on the forearm after the hand left the hip, 11 frames on each garment before); nearer the bone's
+root end (a shoulder) lying outside the other volumes, past that end (cartwheel, long skirt: the upper arm).
 
 Priority in a pinch (a forearm on the hip, an arm against the chest: two volumes overlap and
 squeeze the cloth): the cloth goes no further than where the other volume begins (``_room``), and a
@@ -316,27 +317,42 @@ def _load_corners(vol, v, x, triangles, t, corners):
 
 
 @kernel
-def _past_end(vol, v, x, triangles, t, eps, corners):
-    """``_destinations`` of triangle t of ``x`` off volume v's bone past its far end (into ``corners``)."""
+def _root_free(vol, v):
+    """Whether volume v's bone starts (its root end: a shoulder, a hip) inside no other volume: cloth caught on the
+    bone next to it can go off past it (``_push_off_axis``)."""
+    ex, ey, ez = to_world(vol.pos1, vol.rot1, v, 0.0, 0.0, vol.bones[v, 0])
+    return depth_elsewhere(vol, v, ex, ey, ez) == 0.0
+
+
+@kernel
+def _past_end(vol, v, x, triangles, t, end, eps, corners):
+    """``_destinations`` of triangle t of ``x`` off volume v's bone past its far end (``end`` 1) or its root end
+    (-1), into ``corners``."""
     _load_corners(vol, v, x, triangles, t, corners)
-    return _destinations(vol, v, 0.0, 0.0, True, eps, corners)
+    return _destinations(vol, v, 0.0, 0.0, end, eps, corners)
 
 
 @kernel
 def _destinations(vol, v, ux, uy, past_end, eps, corners):
     """Where the corners (``corners`` (3, 3), local, replaced by their destinations in the simulation frame) go
-    off volume v's bone: across it, along the local unit (ux, uy, 0), each corner short of ``eps`` along it goes
-    there; ``past_end``: along the bone, each corner short of ``eps`` beyond its far end goes there. A corner so
-    moved that is inside v goes out across v's surface (radially, or across its far cut), but not into another
+    off volume v's bone: across it (``past_end`` 0), along the local unit (ux, uy, 0), each corner short of ``eps``
+    along it goes there; ``past_end`` 1 (-1): along the bone, each corner short of ``eps`` beyond its far (root)
+    end goes there. A corner so moved that is inside v goes out across v's surface (radially, or across that
+    end's cut), but not into another
     volume (``_room``). False when a corner would end deeper in another volume o than ``vol.pinch_depths[v, o]``
     (``_too_deep``)."""
     for k in range(3):
         lx, ly, lz = corners[k, 0], corners[k, 1], corners[k, 2]
-        if past_end:
+        if past_end == 1:
             if lz < vol.bones[v, 1] + eps:
                 lz = vol.bones[v, 1] + eps
                 if static_projection(vol.kinds[v], vol.radii, vol.cuts, vol.planes, v, lx, ly, lz)[0]:
                     lz += _room(vol, v, lx, ly, lz, 0.0, 0.0, 1.0, vol.cuts[v, 1] - lz + eps)
+        elif past_end == -1:
+            if lz > vol.bones[v, 0] - eps:
+                lz = vol.bones[v, 0] - eps
+                if static_projection(vol.kinds[v], vol.radii, vol.cuts, vol.planes, v, lx, ly, lz)[0]:
+                    lz -= _room(vol, v, lx, ly, lz, 0.0, 0.0, -1.0, lz - vol.cuts[v, 0] + eps)
         else:
             short = eps - (lx * ux + ly * uy)
             if short > 0.0:
@@ -375,7 +391,8 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
     (unit local direction (ux, uy), ``_side_direction``): the least move that takes the bone out of the triangle,
     seen along the bone; a corner already on that side stays. An approaching velocity relative to v's surface is
     removed. A triangle crossed at the substep's start already (caught) goes past the end when the limb's end is
-    free (``_end_free``), its attached corners staying. A triangle with an attached corner (it rides on the body)
+    free (``_end_free``), its attached corners staying; else, crossed nearer the root end, past that end when it
+    is clear of the other volumes (``_root_free``). A triangle with an attached corner (it rides on the body)
     goes to the side its attached corners are on (``_attached_side``) when the bone reached it in this substep;
     one caught already (its limb's end inside another volume), or whose attached corners straddle the bone, is left
     as it is, and so is one that would end with a corner deeper than ``vol.pinch_depths`` allows in another
@@ -383,10 +400,15 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
     Returns whether a corner moved (a triangle still crossed with its free corners past the end does not)."""
     ux, uy, uz = 0.0, 0.0, 0.0
     caught = _crossed_at_start(vol, v, xs, triangles[t, 0], triangles[t, 1], triangles[t, 2])
-    if caught and _end_free(vol, v) and _past_end(vol, v, x, triangles, t, eps, corners):
+    if caught and _end_free(vol, v) and _past_end(vol, v, x, triangles, t, 1, eps, corners):
         # moved across the bone, a caught triangle only passes the crossing on to a neighbour (the cloth is one
         # sheet, its edge far away); past the limb's free end the bone leaves it (CC jump: the band row)
         uz = 1.0
+    elif (caught and z - vol.bones[v, 0] < vol.bones[v, 1] - z and _root_free(vol, v)
+          and _past_end(vol, v, x, triangles, t, -1, eps, corners)):
+        # caught nearer the root end, which is clear of the trunk: off past it (cartwheel, long skirt, the upper
+        # arm at the shoulder: moved across the bone the crossing passed back and forth between two triangles)
+        uz = -1.0
     elif inv_mass[triangles[t, 0]] == 0.0 or inv_mass[triangles[t, 1]] == 0.0 or inv_mass[triangles[t, 2]] == 0.0:
         if caught:
             # caught before this substep: its free neighbours hold it (their side, by continuity); moved, it
@@ -396,15 +418,15 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
         ux, uy, clear = _attached_side(triangles, t, inv_mass, corners, eps)
         if not clear:
             return False  # its attached corners straddle the bone: no move of the free ones clears it
-        if not _destinations(vol, v, ux, uy, False, eps, corners):
+        if not _destinations(vol, v, ux, uy, 0, eps, corners):
             return False
     elif (not caught and _entered_end(vol, v, triangles, t, u, w, xs)
-          and _past_end(vol, v, x, triangles, t, eps, corners)):
+          and _past_end(vol, v, x, triangles, t, 1, eps, corners)):
         uz = 1.0
     else:
         _load_corners(vol, v, x, triangles, t, corners)
         ux, uy = _side_direction(vol, v, z, triangles, t, u, w, xs, x, corners, eps)
-        if not _destinations(vol, v, ux, uy, False, eps, corners):
+        if not _destinations(vol, v, ux, uy, 0, eps, corners):
             return False
     pos1, rot1 = vol.pos1, vol.rot1
     wnx, wny, wnz = rotate(rot1, v, ux, uy, uz)
