@@ -106,6 +106,10 @@ PARAMETERS: tuple[Param, ...] = (
           "opt-in (1): the strain limiting's contact handling puts a point the correction pulled into a volume out "
           "across the nearest surface, so that cloth pulled taut across a limb slides off it, in garments without "
           "limb tubes (skirts, the one-piece); 0: back out on the side it came from at the substep's start"),
+    Param("band_gives_way", 0, "1", 0, 1,
+          "opt-in (1): an attached point whose skinned position lies inside a forearm's volume goes out of it across "
+          "its axis towards the trunk, collision_epsilon beyond the surface (a hand on the hip: the band under the "
+          "forearm); 0: attached points stay where they are skinned"),
     Param("contact_mobility", 0.5, "1", 0.0, 1.0,
           "share of the strain limiting's correction a point in contact takes (0: contacts hold, 1: as free points)"),
     Param("tethers", 1, "1", 0, 1,
@@ -216,6 +220,7 @@ class SolverParams:
     strain_limit_iterations: int
     strain_limit_tolerance: float
     strain_limit_slide: int
+    band_gives_way: int
     contact_mobility: float
     tethers: int
     tether_slack: float

@@ -12,6 +12,8 @@ import numpy as np
 from numba import njit, prange
 
 from .. import quat_kernels as quat
+from ..collision.geometry import _shape_projection, ray_exit
+from ..collision.volumes import ELLIPSOID as ELLIPSOID_KIND
 
 
 @njit(cache=True)
@@ -217,6 +219,36 @@ def set_attached(x, attached, targets0, targets1, fraction):
         i = attached[k]
         for c in range(3):
             x[i, c] = targets0[k, c] + fraction * (targets1[k, c] - targets0[k, c])
+
+
+@njit(cache=True)
+def push_out_of_volumes(targets, positions, rotations, kinds, radii, cuts, chosen, clearance):
+    """Each target (A, 3) inside one of the ``chosen`` volumes (indices; poses ``positions`` (V, 3),
+    ``rotations`` (V, 4) xyzw, in the root frame) moved out of it ``clearance`` m beyond its surface:
+    across the volume's axis towards the root's vertical axis (an ellipsoid), so that every target leaves
+    a limb on the side facing the trunk; along the outward normal otherwise."""
+    for k in range(targets.shape[0]):
+        for j in range(chosen.shape[0]):
+            v = chosen[j]
+            qx, qy, qz, qw = rotations[v, 0], rotations[v, 1], rotations[v, 2], rotations[v, 3]
+            lx, ly, lz = quat.rotate(-qx, -qy, -qz, qw, targets[k, 0] - positions[v, 0],
+                                     targets[k, 1] - positions[v, 1], targets[k, 2] - positions[v, 2])
+            inside, sx, sy, sz, nx, ny, nz = _shape_projection(kinds[v], radii, cuts, v, lx, ly, lz)
+            if not inside:
+                continue
+            # towards the trunk: the root's vertical axis, seen across the volume's axis
+            dx, dy, _ = quat.rotate(-qx, -qy, -qz, qw, -targets[k, 0], -targets[k, 1], 0.0)
+            across = math.sqrt(dx * dx + dy * dy)
+            if kinds[v] == ELLIPSOID_KIND and across > 1e-9:
+                dx, dy = dx / across, dy / across
+                exit_at = ray_exit(radii[v, 0], radii[v, 1], radii[v, 2], lx, ly, lz, dx, dy, 0.0)
+                if exit_at >= 0.0:
+                    sx, sy, sz = lx + exit_at * dx, ly + exit_at * dy, lz
+                    nx, ny, nz = dx, dy, 0.0
+            wx, wy, wz = quat.rotate(qx, qy, qz, qw, sx + clearance * nx, sy + clearance * ny, sz + clearance * nz)
+            targets[k, 0] = positions[v, 0] + wx
+            targets[k, 1] = positions[v, 1] + wy
+            targets[k, 2] = positions[v, 2] + wz
 
 
 @njit(cache=True)

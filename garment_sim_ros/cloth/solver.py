@@ -66,6 +66,7 @@ from .model import BEND, SHEAR, STRUCTURAL, ClothModel
 from .motion_constraints import SkinBinding, limit_distance
 
 _NO_ROTATIONS = np.zeros((0, 4))
+FOREARM_VOLUME_ENDING = "_lower_arm"
 
 
 @dataclass(frozen=True)
@@ -175,6 +176,11 @@ class GarmentSolver:
         self._attach_frame = frame_rows[model.attachment_frame_index]
         self._attach_frame2 = frame_rows[model.attachment_frame_index2]
         self._shared = bool(np.any(model.attachment_weight2 > 0.0))
+        # the forearms' volumes on frames the garment does not hang from: its attached points give way to them
+        # (``band_gives_way``; the upper arms' and legs' too changed nothing on the CC jump, docs/real_motion.md)
+        self._forearm_volumes = np.array(
+            [k for k, volume in enumerate(volumes.volumes if volumes is not None else ())
+             if volume.name.endswith(FOREARM_VOLUME_ENDING) and volume.frame not in names], dtype=np.int64)
         n = model.num_points
         self._x_start = np.zeros((n, 3))
         self._forces = np.zeros((n, 3))
@@ -231,6 +237,13 @@ class GarmentSolver:
                                         _NO_ROTATIONS)
             weight = model.attachment_weight2[:, None]
             targets += weight * (second - targets)
+        if self.params.band_gives_way and len(self._forearm_volumes):
+            # a forearm lying on the band (a hand on the hip) would hold skinned points inside it, on both sides
+            # of its bone, where no move of the free cloth clears the bone: the band gives way under it
+            positions, rotations = self._local_volume_poses(root_position, root_yaw, frame_positions, frame_rotations)
+            volumes = self.volumes
+            kernels.push_out_of_volumes(targets, positions, rotations, volumes.kinds, volumes.radii, volumes.cuts,
+                                        self._forearm_volumes, self.params.collision_epsilon)
         return targets
 
     def _local_volume_poses(self, root_position, root_yaw, frame_positions, frame_rotations):
