@@ -149,7 +149,7 @@ def test_a_skirt_caught_on_the_upper_arm_at_the_shoulder_goes_off_past_the_shoul
     wrist end let caught cloth off past it: moved across the bone, each caught triangle passed the crossing to
     its neighbour and back (all 16 passes of ``crossing.handle_axes`` moving two triangles), 10 frames with a bone
     through, a spring 6-7 rest lengths long. Caught nearer a root end that is clear of the other volumes, the cloth
-    goes off past that end (``crossing._root_free``): none. Since ``edge_pinch_depth`` is on by default that 1x
+    goes off past that end (``crossing._bone_end_clear``): none. Since ``edge_pinch_depth`` is on by default that 1x
     window holds one bone frame with or without the rule; the run at 2x, 60 fps, to 3.3 s, holds 7 without it
     (measured with the rule's branch switched off) and none with it."""
     row = evaluate_run(Run(str(DATA / "cc_cmu_05_06_dance_cartwheel_pirouette.bvh"), "long_skirt", 2.0, 60.0, 3.3))

@@ -66,7 +66,6 @@ from .model import BEND, SHEAR, STRUCTURAL, ClothModel
 from .motion_constraints import SkinBinding, limit_distance
 
 _NO_ROTATIONS = np.zeros((0, 4))
-FOREARM_VOLUME_ENDING = "_lower_arm"
 
 
 @dataclass(frozen=True)
@@ -179,8 +178,8 @@ class GarmentSolver:
         # the forearms' volumes on frames the garment does not hang from: its attached points give way to them
         # (``band_gives_way``; the upper arms' and legs' too changed nothing on the CC jump, docs/real_motion.md)
         self._forearm_volumes = np.array(
-            [k for k, volume in enumerate(volumes.volumes if volumes is not None else ())
-             if volume.name.endswith(FOREARM_VOLUME_ENDING) and volume.frame not in names], dtype=np.int64)
+            [] if volumes is None else
+            [k for k in np.flatnonzero(volumes.forearms()) if volumes.volumes[k].frame not in names], dtype=np.int64)
         n = model.num_points
         self._x_start = np.zeros((n, 3))
         self._forces = np.zeros((n, 3))

@@ -302,9 +302,13 @@ def _entered_end(vol, v, triangles, t, u, w, xs):
 def _end_free(vol, v):
     """Whether volume v's bone ends at a wrist (``pushes_ahead``) inside no other volume (an elbow is inside the
     forearm's volume): cloth can go off the bone past that end (not an ankle: ``_entered_end``)."""
-    if not vol.pushes_ahead[v]:
-        return False
-    ex, ey, ez = to_world(vol.pos1, vol.rot1, v, 0.0, 0.0, vol.bones[v, 1])
+    return vol.pushes_ahead[v] and _bone_end_clear(vol, v, 1)
+
+
+@kernel
+def _bone_end_clear(vol, v, end):
+    """Whether volume v's bone's far end (``end`` 1) or root end (-1) lies inside no other volume (end pose)."""
+    ex, ey, ez = to_world(vol.pos1, vol.rot1, v, 0.0, 0.0, vol.bones[v, 1 if end == 1 else 0])
     return depth_elsewhere(vol, v, ex, ey, ez) == 0.0
 
 
@@ -314,14 +318,6 @@ def _load_corners(vol, v, x, triangles, t, corners):
     for k in range(3):
         i = triangles[t, k]
         corners[k, 0], corners[k, 1], corners[k, 2] = to_local(vol.pos1, vol.rot1, v, x[i, 0], x[i, 1], x[i, 2])
-
-
-@kernel
-def _root_free(vol, v):
-    """Whether volume v's bone starts (its root end: a shoulder, a hip) inside no other volume: cloth caught on the
-    bone next to it can go off past it (``_push_off_axis``)."""
-    ex, ey, ez = to_world(vol.pos1, vol.rot1, v, 0.0, 0.0, vol.bones[v, 0])
-    return depth_elsewhere(vol, v, ex, ey, ez) == 0.0
 
 
 @kernel
@@ -343,16 +339,13 @@ def _destinations(vol, v, ux, uy, past_end, eps, corners):
     (``_too_deep``)."""
     for k in range(3):
         lx, ly, lz = corners[k, 0], corners[k, 1], corners[k, 2]
-        if past_end == 1:
-            if lz < vol.bones[v, 1] + eps:
-                lz = vol.bones[v, 1] + eps
+        if past_end != 0:  # along the bone, its sign's way: the end's and its cut's column (1 far, 0 root)
+            side = 1 if past_end == 1 else 0
+            if past_end * lz < past_end * vol.bones[v, side] + eps:
+                lz = vol.bones[v, side] + past_end * eps
                 if static_projection(vol.kinds[v], vol.radii, vol.cuts, vol.planes, v, lx, ly, lz)[0]:
-                    lz += _room(vol, v, lx, ly, lz, 0.0, 0.0, 1.0, vol.cuts[v, 1] - lz + eps)
-        elif past_end == -1:
-            if lz > vol.bones[v, 0] - eps:
-                lz = vol.bones[v, 0] - eps
-                if static_projection(vol.kinds[v], vol.radii, vol.cuts, vol.planes, v, lx, ly, lz)[0]:
-                    lz -= _room(vol, v, lx, ly, lz, 0.0, 0.0, -1.0, lz - vol.cuts[v, 0] + eps)
+                    lz += past_end * _room(vol, v, lx, ly, lz, 0.0, 0.0, float(past_end),
+                                           past_end * (vol.cuts[v, side] - lz) + eps)
         else:
             short = eps - (lx * ux + ly * uy)
             if short > 0.0:
@@ -392,7 +385,7 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
     seen along the bone; a corner already on that side stays. An approaching velocity relative to v's surface is
     removed. A triangle crossed at the substep's start already (caught) goes past the end when the limb's end is
     free (``_end_free``), its attached corners staying; else, crossed nearer the root end, past that end when it
-    is clear of the other volumes (``_root_free``). A triangle with an attached corner (it rides on the body)
+    is clear of the other volumes (``_bone_end_clear``). A triangle with an attached corner (it rides on the body)
     goes to the side its attached corners are on (``_attached_side``) when the bone reached it in this substep;
     one caught already (its limb's end inside another volume), or whose attached corners straddle the bone, is left
     as it is, and so is one that would end with a corner deeper than ``vol.pinch_depths`` allows in another
@@ -404,7 +397,7 @@ def _push_off_axis(vol, v, z, triangles, t, u, w, xs, x, vel, inv_mass, h, eps, 
         # moved across the bone, a caught triangle only passes the crossing on to a neighbour (the cloth is one
         # sheet, its edge far away); past the limb's free end the bone leaves it (CC jump: the band row)
         uz = 1.0
-    elif (caught and z - vol.bones[v, 0] < vol.bones[v, 1] - z and _root_free(vol, v)
+    elif (caught and z - vol.bones[v, 0] < vol.bones[v, 1] - z and _bone_end_clear(vol, v, -1)
           and _past_end(vol, v, x, triangles, t, -1, eps, corners)):
         # caught nearer the root end, which is clear of the trunk: off past it (cartwheel, long skirt, the upper
         # arm at the shoulder: moved across the bone the crossing passed back and forth between two triangles)

@@ -59,7 +59,7 @@ class VolumeArrays(NamedTuple):
                    np.ascontiguousarray(volumes.bones, dtype=np.float64), boxes,
                    np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)), np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)),
                    np.zeros(n), np.zeros(n), np.zeros(n), no_planes(n), np.zeros((n, n)),
-                   np.array([name.endswith("_lower_arm") for name in volumes.names()], dtype=np.bool_))
+                   volumes.forearms())
 
     def unbounded(self) -> VolumeArrays:
         """The same arrays (poses shared) with infinite bounding radii and boxes: every broad-phase test

@@ -137,6 +137,11 @@ class VolumeSet:
     def names(self) -> list[str]:
         return [v.name for v in self.volumes]
 
+    def forearms(self) -> np.ndarray:
+        """(V,) bool: the forearms' volumes (``body.fitting`` names them ``<side>_lower_arm``), whose bone ends at
+        a hand: cloth is pushed past that end (``crossing``), a waistband gives way under them (``band_gives_way``)."""
+        return np.array([v.name.endswith("_lower_arm") for v in self.volumes], dtype=np.bool_)
+
     def world_poses(self, frame_positions: np.ndarray, frame_rotations: np.ndarray):
         """Volume poses from the poses of ``self.frames`` (arrays (F, 3), (F, 4), same order)."""
         fp = np.asarray(frame_positions, dtype=float)[self.frame_index]
