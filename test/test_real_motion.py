@@ -116,6 +116,17 @@ def test_the_waistband_gives_way_under_a_forearm_lying_on_it(garment, most):
     assert row["bones_frames"] <= most, row["bones_frames"]
 
 
+def test_a_neckline_does_not_give_way_under_a_forearm():
+    """Issue 11 (b), the cartwheel, one-piece, 2x at 30 fps, 3 s, with ``band_gives_way``: only a waistband
+    (attached points carried by the pelvis) gives way under a forearm. The one-piece's neckline, carried by the
+    chest, giving way too put a bone through the dress in one frame (its longest spring 2.51 -> 3.62): none, the
+    run as without the rule."""
+    row = evaluate_run(Run(str(DATA / "cc_cmu_05_06_dance_cartwheel_pirouette.bvh"), "one_piece", 2.0, 30.0, 3.0,
+                           params=(("band_gives_way", 1),)))
+    assert row["frames"] == 90
+    assert row["bones_frames"] == 0, row["bones_frames"]
+
+
 def test_a_hand_on_the_hip_does_not_spear_the_trousers():
     """Issue 11 (b), cmu_131 (a walk with the left hand on the hip from 1.83 s), trousers, 1x at 60 fps: the
     forearm is pressed up to 45 mm into the pelvis' and 43 mm into the left thigh's volumes and its wrist spears
