@@ -251,16 +251,13 @@ def test_long_skirt_goes_round_a_wide_stride():
         hem = set(model.rings["hem"][0].tolist())
         ends = model.springs[: model.num_correction_springs]
         on_hem = np.flatnonzero([a in hem and b in hem for a, b in ends])
-        advance = solver.advance
 
-        def advance_and_measure(*args, **kwargs):
-            report = advance(*args, **kwargs)
+        def measure(_report):
             x = solver.state.positions
             hem_stretch.append(np.linalg.norm(x[ends[on_hem, 1]] - x[ends[on_hem, 0]], axis=1)
                                / model.rest_lengths[on_hem])
-            return report
 
-        solver.advance = advance_and_measure
+        _after_each_call(solver, "advance", measure)
 
     row = evaluate_run(Run(str(DATA / "xia_angry_13_000.bvh"), "long_skirt", 1.0, 60.0, None), after_dressing=watch_hem)
     assert row["frames"] == 69 and len(hem_stretch) == 69
@@ -319,6 +316,19 @@ def test_the_trousers_crotch_pinched_between_the_pelvis_and_the_thighs_is_not_th
     assert row["bones_frames"] <= 3, row["bones_frames"]
 
 
+def _after_each_call(owner, method: str, record) -> None:
+    """Wrap ``owner.method`` (a solver's ``advance``, a character's ``step``: once per frame) so that ``record`` is
+    called with its result after each call."""
+    call = getattr(owner, method)
+
+    def call_and_record(*args, **kwargs):
+        result = call(*args, **kwargs)
+        record(result)
+        return result
+
+    setattr(owner, method, call_and_record)
+
+
 def _mean_distance_from_bone(points: np.ndarray, arrays, v: int) -> float:
     """Mean distance (m) of simulation-frame ``points`` (P, 3) from volume v's bone (its local z range, end pose)."""
     local = (points - arrays.pos1[v]) @ arrays.rot1[v]
@@ -341,15 +351,12 @@ def test_a_trouser_leg_stays_on_the_shin_through_a_kneel():
         names, arrays = solver.volumes.names(), solver.collider.arrays
         shin, thigh = names.index("left_lower_leg"), names.index("left_upper_leg")
         hem = solver.model.rings["left_leg"][-1]
-        advance = solver.advance
 
-        def advance_and_place(*args, **kwargs):
-            report = advance(*args, **kwargs)
+        def place(_report):
             x = solver.state.positions[hem]
             hem_on_thigh.append(_mean_distance_from_bone(x, arrays, thigh) < _mean_distance_from_bone(x, arrays, shin))
-            return report
 
-        solver.advance = advance_and_place
+        _after_each_call(solver, "advance", place)
 
     row = evaluate_run(Run(str(DATA / "cmu_131_01_walk_mjstyle.bvh"), "pants", 1.0, 60.0, 3.6,
                            params=(("axial_friction", 0.5),)), after_dressing=watch_hem)
@@ -368,14 +375,7 @@ def test_the_trousers_seat_goes_round_the_flexed_thighs_of_a_crouch():
     p99 = []
 
     def record_stretch(character):
-        step = character.step
-
-        def step_and_record(*args, **kwargs):
-            reports = step(*args, **kwargs)
-            p99.append(reports[0].structural_stretch_p99)
-            return reports
-
-        character.step = step_and_record
+        _after_each_call(character, "step", lambda reports: p99.append(reports[0].structural_stretch_p99))
 
     row = evaluate_run(Run(str(DATA / "cmu_01_01_jumps_turnaround.bvh"), "pants", 1.0, 30.0, 14.9),
                        after_dressing=record_stretch)
