@@ -124,6 +124,23 @@ def test_contact_weights_and_keep_where_inside_hand_computed():
     assert np.array_equal(v[2], [0.0, 0.0, 0.0]) and np.array_equal(v[:2], np.ones((2, 3)))
 
 
+def test_undo_limiting_keeps_what_it_took_out_of_a_volume_hand_computed():
+    """Points 0-2 in a row, springs 0-1 and 1-2 (rest 1 m): undone, point 1, inside a volume before the limiting
+    (depth 2 mm there), keeps where the limiting put it; the others go back. When that leaves a spring longer than
+    the bound, every point goes back."""
+    springs, rest = np.array([[0, 1], [1, 2]]), np.ones(2)
+    kept_x = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]])
+    kept_v, stretches = np.zeros((3, 3)), np.zeros(2)
+    limited = kept_x + [[0.0, 0.0, 0.5], [0.0, 0.0, 0.1], [0.0, 0.0, -0.5]]
+    x, v = limited.copy(), np.ones((3, 3))
+    assert kernels.undo_limiting(x, v, kept_x, kept_v, np.array([0.0, 0.002, 0.0]), springs, rest, stretches, 1.5)
+    assert np.array_equal(x[[0, 2]], kept_x[[0, 2]]) and np.array_equal(x[1], limited[1])
+    assert np.array_equal(v[[0, 2]], kept_v[[0, 2]]) and np.array_equal(v[1], [1.0, 1.0, 1.0])
+    x, v = kept_x + [[0.0, 0.0, 0.0], [0.0, 0.0, 2.0], [0.0, 0.0, 0.0]], np.ones((3, 3))  # then sqrt(5) > 1.5 long
+    assert not kernels.undo_limiting(x, v, kept_x, kept_v, np.array([0.0, 0.002, 0.0]), springs, rest, stretches, 1.5)
+    assert np.array_equal(x, kept_x) and np.array_equal(v, kept_v)
+
+
 def frame_figures(garment: str, strain_limit_iterations: int, seconds: float = 1.0, clip: Path = CLIP):
     """Per frame after dressing on a real clip: the worse of the structural and shear p99 stretch, the
     worse of their longest springs, the deepest free point (m) and the limb bones through the cloth."""

@@ -297,9 +297,11 @@ def _limit_strain(arrays, xs, x, v, inv_mass, h, contacts, correction, edges, tr
     s, n_dynamic = _resolve(arrays, xs, x, v, inv_mass, h, contacts, edges, triangles, scratch, contact)
     collision_kernels.penetration_depths(arrays, x, depths)
     kernels.keep_where_inside(x, v, x_kept, v_kept, depths)
-    if kernels.spring_stretches(x, springs, rest, stretches) > max(worst_kept, undone):
-        x[:] = x_kept  # the handling threw a point off (see GarmentSolver.STRAIN_LIMIT_UNDONE): not this substep
-        v[:] = v_kept
+    bound = max(worst_kept, undone)
+    if kernels.spring_stretches(x, springs, rest, stretches) > bound:
+        # the handling threw a point off (see GarmentSolver.STRAIN_LIMIT_UNDONE): not this substep
+        collision_kernels.penetration_depths(arrays, x_kept, depths)
+        kernels.undo_limiting(x, v, x_kept, v_kept, depths, springs, rest, stretches, bound)
     ticks[CORRECTION] += toc - tac
     ticks[COLLISION] += (tac - tic) + (_cycles() - toc)
     return n_static + s, n_dynamic

@@ -203,6 +203,27 @@ def keep_where_inside(x, v, x_kept, v_kept, depth):
 
 
 @njit(cache=True)
+def undo_limiting(x, v, x_kept, v_kept, depth_kept, springs, rest, stretches, bound):
+    """The strain limiting undone (``GarmentSolver.STRAIN_LIMIT_UNDONE``): points back to ``x_kept`` with ``v_kept``,
+    but those inside a volume there (``depth_kept`` > 0) that the limiting's collision handling took out keep where
+    it put them (``x``: every point is outside or at ``x_kept``, ``keep_where_inside``), unless a spring (``springs``,
+    ``rest``; ``stretches`` scratch) then ends longer than ``bound``: then all go back. Returns whether some kept."""
+    kept = False
+    for i in range(x.shape[0]):
+        if depth_kept[i] > 0.0:
+            kept = True
+            continue
+        for c in range(3):
+            x[i, c] = x_kept[i, c]
+            v[i, c] = v_kept[i, c]
+    if kept and spring_stretches(x, springs, rest, stretches) > bound:
+        x[:] = x_kept
+        v[:] = v_kept
+        kept = False
+    return kept
+
+
+@njit(cache=True)
 def velocities_from_positions(x, x_start, h, v):
     """Memo Eq. 5-2: ``v = (x_corrected - x_start) / h``."""
     inv_h = 1.0 / h
