@@ -261,8 +261,9 @@ def one_piece(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -
     ])
     n_around, n_levels = _counts(resolution, 48, 15)
     # vented as the long skirt: closed, its hem (a sheath's, 9-21 % shorter than the loop round both legs in
-    # the long skirt's stride on the shared clips' bodies) went round cmu_131's wide stances (thighs 62-69 deg
-    # apart, 55 deg of knee flexion) 14-16 cm up the legs, 6-7 % longer than at rest for a second
+    # the long skirt's stride on the shared clips' bodies) went round both legs in xia_angry's 73 deg strides
+    # (its springs' p99 1.13-1.19) and cmu_131's wide stances (thighs 62-69 deg apart, a knee bent 55 deg;
+    # 14-16 cm up the legs, 6-7 % longer than at rest for a second)
     vertices, triangles, rings = _vented_tube(_profile(body.chest_z, hem_z, n_levels, radii), n_around, body)
     neckline = vertices[rings[0]]
     neckline[:, 1] *= _neckline_half_width(body, ease) / (body.chest_ry + ease)
