@@ -107,9 +107,9 @@ PARAMETERS: tuple[Param, ...] = (
           "across the nearest surface, so that cloth pulled taut across a limb slides off it, in garments without "
           "limb tubes (skirts, the one-piece); 0: back out on the side it came from at the substep's start"),
     Param("band_gives_way", 0, "1", 0, 1,
-          "opt-in (1): an attached point whose skinned position lies inside a forearm's volume goes out of it across "
-          "its axis towards the trunk, collision_epsilon beyond the surface (a hand on the hip: the band under the "
-          "forearm); 0: attached points stay where they are skinned"),
+          "opt-in (1): a waistband's attached point (a garment carried by the pelvis) whose skinned position lies "
+          "inside a forearm's volume goes out of it across its axis towards the trunk, collision_epsilon beyond the "
+          "surface (a hand on the hip: the band under the forearm); 0: attached points stay where they are skinned"),
     Param("contact_mobility", 0.5, "1", 0.0, 1.0,
           "share of the strain limiting's correction a point in contact takes (0: contacts hold, 1: as free points)"),
     Param("tethers", 1, "1", 0, 1,

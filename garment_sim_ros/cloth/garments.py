@@ -36,6 +36,14 @@ _CROTCH_EASE_PER_THIGH = 0.65
 # thigh and knee (35 mm on the 1.75 m standard body), and below the knee (45 mm): scaled with the body.
 _THIGH_EASE_PER_THIGH = 0.41
 _SHIN_EASE_PER_THIGH = 0.53
+# Seat ease of the trousers' hip tube at the hips' widest (on top of the waist-and-hips ease), as a share of the
+# thigh's radius (17 mm on the standard body), tapering to none at the waist and at the crotch: a thigh flexing
+# forward swells out of the pelvis volume under the seat, and the hip tube's rings there went round it stretched
+# (cmu_01_01's crouches, both hips flexed: worst frame's p99 1.21 -> 1.07 over the clip at 1x, 60 fps; the CC
+# walk's ring 3 cm above the hip joint). None at the crotch ring: ease there lengthens the crotch seam and a thigh
+# walks through it into the other leg (20 mm there too: cmu_01_01 at 3x, 349 legs-off frames); more than this
+# at the seat did the same (0.3: 42 legs-off frames at 3x). docs/real_motion.md, "Seat ease".
+_SEAT_EASE_PER_THIGH = 0.2
 # Room between a one-piece's neckline and the upper arms hanging at the sides, per stature (15 mm at 1.75 m).
 _UNDERARM_EASE_PER_STATURE = 0.0086
 
@@ -303,9 +311,10 @@ def pants(body: BodyMeasurements = STANDARD_BODY, resolution: float = 1.0) -> Ga
     n_leg_levels = max(3, round(14 * resolution))
     hem_z = body.ankle_z + 0.05
 
+    seat_ease = ease + _SEAT_EASE_PER_THIGH * body.thigh_radius
     hip_radii = _interp_section([
         (body.waist_z, body.waist_x, body.waist_rx + ease, body.waist_ry + ease),
-        (body.hip_z, body.hip_x, body.hip_rx + ease, body.hip_ry + ease),
+        (body.hip_z, body.hip_x, body.hip_rx + seat_ease, body.hip_ry + seat_ease),
         (body.crotch_z, body.hip_x, body.hip_rx + ease, body.hip_ry + ease),
     ])
     # Ring phase: index 0 at the front centre (+x), index `half` at the back centre.

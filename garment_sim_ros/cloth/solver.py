@@ -175,10 +175,12 @@ class GarmentSolver:
         self._attach_frame = frame_rows[model.attachment_frame_index]
         self._attach_frame2 = frame_rows[model.attachment_frame_index2]
         self._shared = bool(np.any(model.attachment_weight2 > 0.0))
-        # the forearms' volumes on frames the garment does not hang from: its attached points give way to them
-        # (``band_gives_way``; the upper arms' and legs' too changed nothing on the CC jump, docs/real_motion.md)
+        # the forearms' volumes on frames the garment does not hang from: a waistband (attached points carried by
+        # the pelvis) gives way to them (``band_gives_way``; the upper arms' and legs' too changed nothing on the CC
+        # jump; a one-piece's neckline, carried by the chest, giving way too put a bone through it on the cartwheel
+        # at 2x 30 fps, longest spring 2.51 -> 3.62; docs/real_motion.md)
         self._forearm_volumes = np.array(
-            [] if volumes is None else
+            [] if volumes is None or "pelvis" not in model.attachment_frames else
             [k for k in np.flatnonzero(volumes.forearms()) if volumes.volumes[k].frame not in names], dtype=np.int64)
         n = model.num_points
         self._x_start = np.zeros((n, 3))
