@@ -337,9 +337,9 @@ class GarmentSolver:
             return None
         if self._layout is None:
             model, const = self.model, self.constants
-            self._layout = ParallelLayout.build(model.rest_positions, model.springs, model.rest_lengths,
-                                                const.stiffness, const.damping, self._correct_count, self._edges,
-                                                self._edge_rest)
+            self._layout = ParallelLayout.build(model.rest_positions, self._triangles, model.springs,
+                                                model.rest_lengths, const.stiffness, const.damping,
+                                                self._correct_count, self._edges, self._edge_rest)
         return self._layout
 
     def _length_correction(self, x: np.ndarray, inv_mass: np.ndarray, layout: ParallelLayout | None) -> float:
