@@ -143,8 +143,8 @@ def test_halves_dress_a_large_garment_as_the_serial_sweep_does_on_a_real_clip():
     order is a larger nudge to a swinging hem, which the stretch and depth figures show is not a worse garment).
     The centroid bound is 1.5 times the floor of any two-group layout: with only the forces' sums split (the
     correction and edges in the model's order) the centroids end 1.64-2.00 cm apart over ten 1 um nudges and the
-    worst spring reads 1.36-1.49 (docs/real_motion.md, "The halves against the serial sweep, measured further"); a bound at the
-    floor (2 cm, before) failed on rounding alone."""
+    worst spring reads 1.36-1.49 (docs/real_motion.md, "The halves against the serial sweep, measured further");
+    a bound at the floor (2 cm, before) failed on rounding alone."""
     source = bvh_source(str(WALK), loop=False)
     times = np.arange(41) / 60.0
     runs = []
