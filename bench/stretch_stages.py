@@ -68,6 +68,7 @@ def main() -> None:
     character = make_character(source.rest_pose, source.joint_map, [args.garment], DEFAULT_PARAMS, 1.0,
                                motion=source.fit_poses())  # as evaluate dresses it
     solver = character.solvers[0]
+    solver.use_fused = False  # the reference loop, whose stages are wrapped below (the fused frame calls neither)
     model = solver.model
     stretches = np.zeros(model.num_correction_springs)
     stages: dict[str, list[tuple[float, float]]] = {}
@@ -79,10 +80,10 @@ def main() -> None:
 
     collide, limit_strain = solver._collide, solver._limit_strain
 
-    def recorded_collide(x, v, h):
+    def recorded_collide(x, v, h, layout):
         name = "limiting" if in_limiting[0] else "handling"
         stages.setdefault(f"before the {name}'s collision handling", []).append(figures(x))
-        collide(x, v, h)
+        collide(x, v, h, layout)
         stages.setdefault(f"after the {name}'s collision handling", []).append(figures(x))
 
     def recorded_limit_strain(*args):
