@@ -318,7 +318,9 @@ class DressedCharacter:
             # coming down onto it (CC 02_04: a forearm ended through the long skirt and the trousers);
             # the hold lets the springs settle without it. Nor the friction along the limbs: a trouser leg dressed
             # straight slides up a knee the pose bends (held, xia_angry's first frames stretched to p99 1.15).
-            solver.set_params(solver.params.replace(strain_limit_iterations=0, axial_friction=0.0))
+            # Nor the exit through the pelvis' open bottom: it moved the CC walk's crotch seam 65 mm.
+            solver.set_params(solver.params.replace(strain_limit_iterations=0, axial_friction=0.0,
+                                                    open_cut_band=0.0))
         still = np.zeros(3)
         # Blend, then hold the pose so the garments come to rest on it.
         t = start

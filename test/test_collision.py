@@ -135,6 +135,25 @@ def test_ellipsoid_cut_ends_are_respected():
     assert x[0, 2] == pytest.approx(0.17) and x[0, 0] > 0.01
 
 
+def test_a_point_by_an_open_cut_leaves_through_it_but_not_through_a_cut_another_volume_covers():
+    # 1 mm under a trunk volume's top cut, no bone going on through it: the cut is the nearest way out
+    chest = Volume("chest", ELLIPSOID, "f", (0.1, 0.15, 0.3), cut=(-0.15, 0.15))
+    p = [0.02, 0.03, 0.149]
+    alone = make_collider([chest], 1, [0, 0, 0], collision_mode="static")
+    x, _ = handle(alone, p, p)
+    np.testing.assert_allclose(x[0], [0.02, 0.03, 0.15 + alone._eps], atol=1e-12)
+    # a volume over the middle of the cut's face (a neck on the chest): the cut is not open; the point goes across
+    # the cross-section (z kept, x and y scaled onto it, eps along the normal), in neither volume (the cartwheel's
+    # one-piece at 3x 30 fps went out through the chest's top into the neck and the head, then 15.8 mm into the chest)
+    neck = [0.0, 0.0, 0.23]
+    covered = make_collider([chest, sphere(0.088, "neck")], 1, [[0, 0, 0], neck], collision_mode="static")
+    assert np.linalg.norm(np.subtract(p, neck)) > 0.088 > np.linalg.norm(np.subtract(x[0], neck))  # in the chest only
+    x, _ = handle(covered, p, p)
+    assert covered.static_hits == 1 and covered.penetration_depths(x)[0] == 0.0
+    assert abs(x[0, 2] - 0.149) <= covered._eps and x[0, 1] / x[0, 0] == pytest.approx(1.5, rel=0.05)
+    assert np.hypot(x[0, 0], x[0, 1]) > 3.0 * np.hypot(0.02, 0.03)
+
+
 def test_response_is_relative_to_a_translating_surface():
     # a sphere moving +x at 2 m/s runs into a resting point: the point leaves with the surface
     h = 0.01
@@ -418,7 +437,7 @@ def reference_handle_all(collider, xs, x, v):
             hits += response.handle_pair(vol, k, xs, x, v, i, H, c._eps, c._friction, c._grip, c._c_time,
                                          c._switch_ratio, c._mode)[0] != response.NO_HIT
         for _ in range(4 if hits else 0):  # no friction along the bones there: the way out may be along one
-            settle_grip = (c._grip[0], 0.0, c._grip[2])
+            settle_grip = (c._grip[0], 0.0, c._grip[2], c._grip[3])
             moved = [response.handle_pair(vol, k, xs, x, v, i, H, c._eps, c._friction, settle_grip, c._c_time,
                                           c._switch_ratio, response.MODE_STATIC)[0] != response.NO_HIT
                      for k in range(len(vol.kinds))]

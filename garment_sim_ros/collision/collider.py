@@ -97,7 +97,8 @@ class Collider:
     # ------------------------------------------------------------------ set-up per run/frame/substep
     def set_params(self, params: SolverParams) -> None:
         self._friction = float(params.friction)
-        self._grip = (float(params.contact_friction), float(params.axial_friction), self._grips)
+        self._grip = (float(params.contact_friction), float(params.axial_friction), self._grips,
+                      float(params.open_cut_band))
         self._margin = float(params.contact_margin)
         self._eps = float(params.collision_epsilon)
         self._pinch_depth = float(params.pinch_depth)

@@ -208,7 +208,7 @@ def _handle_point_all(vol, xs, x, vel, i, h, eps, friction, grip, c_time, switch
     # Volumes overlap at the joints: being pushed out of one can push a point into its
     # neighbour (the crotch between pelvis and thigh). A few static passes settle it, without the friction
     # along the bones: the way out of a squeeze is often along them, and the grip would hold the point inside.
-    settle_grip = (grip[0], 0.0, grip[2])
+    settle_grip = (grip[0], 0.0, grip[2], grip[3])
     for _ in range(_SETTLE_PASSES if n_static + n_dynamic > 0 else 0):
         moved = False
         for v in range(n_volumes):

@@ -83,13 +83,20 @@ def surface_velocity(vol, v, lx, ly, lz, h):
 # 246 -> 135. Without the share (any point that came through a cut) hem points at the shins' ankle cut
 # went out under the shin and the walks at 30 fps lost a trouser leg (CC walk 1x/2x: 19, 36 frames).
 _CUT_EXIT_SHARE = 0.5
+# A point inside a trunk volume within ``open_cut_band`` (grip[3]) of an open cut (``_cut_is_open``: the pelvis'
+# bottom, between the thighs) leaves through it when the static projection would move it more than this many
+# collision epsilons: the taut seat of a crouch lies on that face and each length-correction sweep pulled a point a
+# few mm up through it, which the projection put 31-72 mm sideways onto the rim (CC jump: springs at 4-7 rest
+# lengths). The full protocol, whole clips, 216 runs: passed 142 -> 148, bone frames 82 -> 65 (docs/real_motion.md).
+_CUT_NEAR_MOVES = 4.0
 _ON_PLANE = 1e-9  # m: a static projection this near a contact plane went onto it
 
 
 @inlined_kernel
 def handle_pair(vol, v, xs, x, vel, i, h, eps, friction, grip, c_time, switch_ratio, mode):
     """Handle point ``i`` against volume ``v``; ``x``, ``vel`` updated in place; ``grip`` the position-level
-    friction coefficients (``contact_friction``, ``axial_friction``; see ``_respond``).
+    friction coefficients (``contact_friction``, ``axial_friction``; see ``_respond``), the tube bits and
+    ``open_cut_band``.
 
     ``xs[i]`` is the point at the substep start, ``x[i]`` at its end. Returns
     ``(code, alpha, lx, ly, lz)``: NO_HIT / STATIC_HIT / DYNAMIC_HIT, the collision time
@@ -130,17 +137,39 @@ def handle_local_pair(vol, v, x, vel, i, ax, ay, az, bx, by, bz, h, eps, frictio
     if not inside:
         return NO_HIT, -1.0, bx, by, bz
     reach = _CUT_EXIT_SHARE * min(radii[v, 0], radii[v, 1])
-    if (kind == ELLIPSOID and (sx - bx) ** 2 + (sy - by) ** 2 > reach * reach
+    move = (sx - bx) ** 2 + (sy - by) ** 2
+    if (kind == ELLIPSOID and move > _CUT_NEAR_MOVES * _CUT_NEAR_MOVES * eps * eps
             and abs(plane_gap(planes, v, sx, sy, sz)[0]) > _ON_PLANE):  # not onto a contact plane
-        # A point that came in through a cut plane this substep goes back out through it, not across the
-        # cross-section: the pelvis' bottom cut is open between the thighs, and a crotch seam a few mm up
-        # into it was thrown 14 cm sideways, across a thigh (see _CUT_EXIT_SHARE).
-        if az < cuts[v, 0] and cuts[v, 0] > -radii[v, 2]:
-            sx, sy, sz, nx, ny, nz = bx, by, cuts[v, 0], 0.0, 0.0, -1.0
-        elif az > cuts[v, 1] and cuts[v, 1] < radii[v, 2]:
-            sx, sy, sz, nx, ny, nz = bx, by, cuts[v, 1], 0.0, 0.0, 1.0
+        # A point that came in through a cut plane this substep and would go far goes back out through it, not
+        # across the cross-section: a crotch seam a few mm up into the pelvis was thrown 14 cm across a thigh.
+        # Within ``open_cut_band`` (grip[3]) of an open cut, it leaves through the cut: no bone continues through it
+        # and the middle of its face lies in no other volume (the pelvis' bottom, between the thighs; not its top,
+        # in the torso, nor the chest's top under a neck: the cartwheel's one-piece went into the neck and the head
+        # that way, and from them 15.8 mm into the chest).
+        far = move > reach * reach
+        boneless = math.isnan(vol.bones[v, 0])
+        came_through, side = True, 0.0
+        if far and az < cuts[v, 0] and cuts[v, 0] > -radii[v, 2]:
+            side = -1.0
+        elif far and az > cuts[v, 1] and cuts[v, 1] < radii[v, 2]:
+            side = 1.0
+        elif boneless and bz - grip[3] < cuts[v, 0] and cuts[v, 0] > -radii[v, 2]:
+            came_through, side = False, -1.0
+        elif boneless and bz + grip[3] > cuts[v, 1] and cuts[v, 1] < radii[v, 2]:
+            came_through, side = False, 1.0
+        exit_z = cuts[v, 0] if side < 0.0 else cuts[v, 1]
+        if side != 0.0 and (came_through or _cut_is_open(vol, v, exit_z, side, eps)):
+            sx, sy, sz, nx, ny, nz = bx, by, exit_z, 0.0, 0.0, side
     _respond(vol, v, x, vel, i, ax, ay, az, bx, by, bz, sx, sy, sz, nx, ny, nz, eps, friction, grip, h, 0.0)
     return STATIC_HIT, 1.0, sx, sy, sz
+
+
+@kernel
+def _cut_is_open(vol, v, z, side, eps):
+    """Whether the middle of volume v's cut face at local ``z`` (m; ``side`` +1: its top, -1: its bottom), ``eps``
+    (m) beyond the face, lies in no other volume (end pose): nothing on the body continues through it."""
+    px, py, pz = to_world(vol.pos1, vol.rot1, v, 0.0, 0.0, z + side * eps)
+    return depth_elsewhere(vol, v, px, py, pz) == 0.0
 
 
 @kernel
