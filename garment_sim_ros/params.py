@@ -166,11 +166,12 @@ PARAMETERS: tuple[Param, ...] = (
           "the shin): as contact_friction, for a slide toward the limb's root only, so that a limb moving along "
           "itself carries its trouser leg and a stretched spring does not pull a ring it grips up the limb; a ring "
           "slides down freely; 0: off (docs/real_motion.md: it stops the climb, the first frames stretch more)"),
-    Param("open_cut_band", 0.003, "m", 0.0, 0.1,
-          "a point inside a trunk volume (an ellipsoid no bone continues through) within this of an open cut plane "
-          "(the middle of its face in no other volume: the pelvis' bottom, between the thighs) leaves through the "
-          "cut, not across the cross-section, when that would move it more than four collision_epsilon; off (0) "
-          "while dressing, where it pulled the crotch seam 65 mm (CC walk); 0: off"),
+    Param("open_cut_band", 0.0, "m", 0.0, 0.1,
+          "opt-in: a point inside a trunk volume (an ellipsoid no bone continues through) within this of an open cut "
+          "plane (the middle of its face in no other volume: the pelvis' bottom, between the thighs) leaves through "
+          "the cut, not across the cross-section, when that would move it more than four collision_epsilon; off "
+          "while dressing; 0: off (docs/real_motion.md: 0.003 takes the full protocol 142 -> 148/216 and the "
+          "trousers' crouches off 4-7 rest lengths, but loses six pinned behaviours of the acrobatic clips)"),
     Param("contact_margin", 0.0, "m", 0.0, 0.05,
           "a volume stays in a point's contact cache while the point is within this of the volume's bounding "
           "sphere, so that the contact handling during the length correction keeps a point resting just outside "

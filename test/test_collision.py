@@ -139,14 +139,15 @@ def test_a_point_by_an_open_cut_leaves_through_it_but_not_through_a_cut_another_
     # 1 mm under a trunk volume's top cut, no bone going on through it: the cut is the nearest way out
     chest = Volume("chest", ELLIPSOID, "f", (0.1, 0.15, 0.3), cut=(-0.15, 0.15))
     p = [0.02, 0.03, 0.149]
-    alone = make_collider([chest], 1, [0, 0, 0], collision_mode="static")
+    alone = make_collider([chest], 1, [0, 0, 0], collision_mode="static", open_cut_band=0.003)
     x, _ = handle(alone, p, p)
     np.testing.assert_allclose(x[0], [0.02, 0.03, 0.15 + alone._eps], atol=1e-12)
     # a volume over the middle of the cut's face (a neck on the chest): the cut is not open; the point goes across
     # the cross-section (z kept, x and y scaled onto it, eps along the normal), in neither volume (the cartwheel's
     # one-piece at 3x 30 fps went out through the chest's top into the neck and the head, then 15.8 mm into the chest)
     neck = [0.0, 0.0, 0.23]
-    covered = make_collider([chest, sphere(0.088, "neck")], 1, [[0, 0, 0], neck], collision_mode="static")
+    covered = make_collider([chest, sphere(0.088, "neck")], 1, [[0, 0, 0], neck], collision_mode="static",
+                            open_cut_band=0.003)
     assert np.linalg.norm(np.subtract(p, neck)) > 0.088 > np.linalg.norm(np.subtract(x[0], neck))  # in the chest only
     x, _ = handle(covered, p, p)
     assert covered.static_hits == 1 and covered.penetration_depths(x)[0] == 0.0

@@ -33,7 +33,8 @@ from . import response
 from .volume_arrays import MAX_PLANES, VolumeArrays
 from .volumes import ELLIPSOID
 
-_NO_GRIP = (0.0, 0.0, np.zeros(1, dtype=np.int64))  # the memo's friction alone (``response._respond``'s grip)
+# the memo's friction alone (``response._respond``'s grip), no open-cut exit
+_NO_GRIP = (0.0, 0.0, np.zeros(1, dtype=np.int64), 0.0)
 
 RADII = (0.08, 0.08, 0.2)  # m: a thigh
 RISE_SPEED = 0.1  # m/s, up
