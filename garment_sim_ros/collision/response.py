@@ -138,7 +138,9 @@ def handle_local_pair(vol, v, x, vel, i, ax, ay, az, bx, by, bz, h, eps, frictio
         return NO_HIT, -1.0, bx, by, bz
     reach = _CUT_EXIT_SHARE * min(radii[v, 0], radii[v, 1])
     move = (sx - bx) ** 2 + (sy - by) ** 2
-    if (kind == ELLIPSOID and move > _CUT_NEAR_MOVES * _CUT_NEAR_MOVES * eps * eps
+    far = move > reach * reach
+    near_moves = move > _CUT_NEAR_MOVES * _CUT_NEAR_MOVES * eps * eps
+    if (kind == ELLIPSOID and (far or near_moves)
             and abs(plane_gap(planes, v, sx, sy, sz)[0]) > _ON_PLANE):  # not onto a contact plane
         # A point that came in through a cut plane this substep and would go far goes back out through it, not
         # across the cross-section: a crotch seam a few mm up into the pelvis was thrown 14 cm across a thigh.
@@ -146,16 +148,15 @@ def handle_local_pair(vol, v, x, vel, i, ax, ay, az, bx, by, bz, h, eps, frictio
         # and the middle of its face lies in no other volume (the pelvis' bottom, between the thighs; not its top,
         # in the torso, nor the chest's top under a neck: the cartwheel's one-piece went into the neck and the head
         # that way, and from them 15.8 mm into the chest).
-        far = move > reach * reach
-        boneless = math.isnan(vol.bones[v, 0])
+        trunk_cut = near_moves and math.isnan(vol.bones[v, 0])  # no bone continues through its cuts
         came_through, side = True, 0.0
         if far and az < cuts[v, 0] and cuts[v, 0] > -radii[v, 2]:
             side = -1.0
         elif far and az > cuts[v, 1] and cuts[v, 1] < radii[v, 2]:
             side = 1.0
-        elif boneless and bz - grip[3] < cuts[v, 0] and cuts[v, 0] > -radii[v, 2]:
+        elif trunk_cut and bz - grip[3] < cuts[v, 0] and cuts[v, 0] > -radii[v, 2]:
             came_through, side = False, -1.0
-        elif boneless and bz + grip[3] > cuts[v, 1] and cuts[v, 1] < radii[v, 2]:
+        elif trunk_cut and bz + grip[3] > cuts[v, 1] and cuts[v, 1] < radii[v, 2]:
             came_through, side = False, 1.0
         exit_z = cuts[v, 0] if side < 0.0 else cuts[v, 1]
         if side != 0.0 and (came_through or _cut_is_open(vol, v, exit_z, side, eps)):
