@@ -171,7 +171,8 @@ PARAMETERS: tuple[Param, ...] = (
           "plane (the middle of its face in no other volume: the pelvis' bottom, between the thighs) leaves through "
           "the cut, not across the cross-section, when that would move it more than four collision_epsilon; off "
           "while dressing; 0: off (docs/real_motion.md: 0.003 takes the full protocol 142 -> 148/216 and the "
-          "trousers' crouches off 4-7 rest lengths, but loses six pinned behaviours of the acrobatic clips)"),
+          "trousers' crouches off 4-7 rest lengths, but loses six behaviours the suite pins, on the acrobatic "
+          "clips and cmu_131's kneel)"),
     Param("contact_margin", 0.0, "m", 0.0, 0.05,
           "a volume stays in a point's contact cache while the point is within this of the volume's bounding "
           "sphere, so that the contact handling during the length correction keeps a point resting just outside "
