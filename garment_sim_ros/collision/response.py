@@ -139,8 +139,10 @@ def handle_local_pair(vol, v, x, vel, i, ax, ay, az, bx, by, bz, h, eps, frictio
     reach = _CUT_EXIT_SHARE * min(radii[v, 0], radii[v, 1])
     move = (sx - bx) ** 2 + (sy - by) ** 2
     far = move > reach * reach
-    near_moves = move > _CUT_NEAR_MOVES * _CUT_NEAR_MOVES * eps * eps
-    if (kind == ELLIPSOID and (far or near_moves)
+    # a trunk volume's cut, no bone continuing through it, with the rule on (off: the block below as without it)
+    trunk_cut = (grip[3] > 0.0 and move > _CUT_NEAR_MOVES * _CUT_NEAR_MOVES * eps * eps
+                 and math.isnan(vol.bones[v, 0]))
+    if (kind == ELLIPSOID and (far or trunk_cut)
             and abs(plane_gap(planes, v, sx, sy, sz)[0]) > _ON_PLANE):  # not onto a contact plane
         # A point that came in through a cut plane this substep and would go far goes back out through it, not
         # across the cross-section: a crotch seam a few mm up into the pelvis was thrown 14 cm across a thigh.
@@ -148,7 +150,6 @@ def handle_local_pair(vol, v, x, vel, i, ax, ay, az, bx, by, bz, h, eps, frictio
         # and the middle of its face lies in no other volume (the pelvis' bottom, between the thighs; not its top,
         # in the torso, nor the chest's top under a neck: the cartwheel's one-piece went into the neck and the head
         # that way, and from them 15.8 mm into the chest).
-        trunk_cut = near_moves and math.isnan(vol.bones[v, 0])  # no bone continues through its cuts
         came_through, side = True, 0.0
         if far and az < cuts[v, 0] and cuts[v, 0] > -radii[v, 2]:
             side = -1.0
