@@ -245,7 +245,7 @@ def test_surface_depth_sees_a_sphere_bulging_between_cloth_points_that_are_all_o
 
 # ----------------------------------------------------------------------------- garment-sim evaluate
 
-ROW_KEYS = {"clip", "garment", "speed", "fps", "frames", "bones_frames", "bones_max", "limb_tubes", "legs_off_frames",
+ROW_KEYS = {"clip", "garment", "speed", "fps", "nudge", "frames", "bones_frames", "bones_max", "limb_tubes", "legs_off_frames",
             "deep_frames", "deep_share", "max_depth_mm", "pressed_mm", "surface_depth_mm", "structural_stretch_p99",
             "structural_stretch_max", "shear_stretch_p99", "shear_stretch_max", "guard_firings", "carried_frames",
             "joint_glitches", "joint_glitches_text", "targets", "passed", "wall_s"}
@@ -262,7 +262,7 @@ def test_evaluate_json_rows_and_summary_on_a_real_clip():
                                                         ("short_skirt", 30)]
     for r in rows:
         assert set(r) == ROW_KEYS
-        assert r["clip"] == "xia_old_13_000" and r["speed"] == 1.0
+        assert r["clip"] == "xia_old_13_000" and r["speed"] == 1.0 and r["nudge"] == 0
         assert r["joint_glitches"] == 1 and "RightToeBase x1 (frames 5-9)" in r["joint_glitches_text"]  # its toe flip
         assert r["frames"] == round(0.2 * r["fps"])
         assert set(r["targets"]) == {"a", "b", "c", "d", "e", "f"} and r["targets"]["f"] is None  # one garment
@@ -327,3 +327,52 @@ def test_evaluate_param_changes_the_parameters_of_every_run_and_refuses_bad_valu
                              "contact_margin=0.2"], capture_output=True, text=True, timeout=600)
     assert result.returncode == 2 and "contact_margin: got 0.2; allowed: [0.0, 0.05] m" in result.stderr
     assert "Traceback" not in result.stderr
+
+
+def test_evaluate_nudges_repeat_each_run_from_a_start_moved_1_um_and_say_which_rows_pass_with_every_seed():
+    """``--nudges``: one run per seed, its free points moved ``NUDGE_M`` after dressing (the attached ones not);
+    the summary counts the rows (clip x garment x speed x frame rate) that pass with every seed and with some."""
+    import argparse
+
+    from garment_sim_ros.commands.evaluate import (NUDGE_M, add_arguments, format_summary, nudge_free_points, plan,
+                                                   summarize)
+
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    runs = plan(parser.parse_args([str(CLIP), "--garments", "pants,short_skirt", "--nudges", "0,3"]))
+    assert [(r.garment, r.nudge) for r in runs] == [("pants", 0), ("pants", 3), ("short_skirt", 0),
+                                                    ("short_skirt", 3)]
+    assert {r.nudge for r in plan(parser.parse_args([str(CLIP)]))} == {0}  # not nudged by default
+    for text in ("1,1", "-1", "a", ""):
+        with pytest.raises(ValueError, match="--nudges"):
+            plan(parser.parse_args([str(CLIP), "--nudges", text]))
+
+    source = procedural_source()
+    character = make_character(source.rest_pose, source.joint_map, ["pants"], DEFAULT_PARAMS)
+    solver = character.solvers[0]
+    before = solver.state.positions.copy()
+    nudge_free_points(character, 3)
+    moved = np.linalg.norm(solver.state.positions - before, axis=1)
+    free = solver.constants.inv_mass > 0
+    assert np.allclose(moved[free], NUDGE_M, rtol=1e-6) and not moved[~free].any()
+    nudged = solver.state.positions.copy()
+    for seed, same in ((3, True), (4, False)):  # seeded: the same seed moves them the same way
+        solver.state.positions[...] = before
+        nudge_free_points(character, seed)
+        assert np.array_equal(solver.state.positions, nudged) == same
+
+    def row(garment, nudge, bones_ok, stretch_ok):
+        targets = {"a": True, "b": bones_ok, "c": None, "d": stretch_ok, "e": True, "f": None}
+        return {"clip": "c", "garment": garment, "speed": 1.0, "fps": 60.0, "nudge": nudge, "targets": targets,
+                "passed": bones_ok and stretch_ok}
+
+    rows = [row("pants", 0, True, True), row("pants", 1, True, False), row("skirt", 0, False, True),
+            row("skirt", 1, False, True), row("cape", 0, True, True), row("cape", 1, True, True)]
+    nudges = summarize(rows)["nudges"]
+    assert nudges["seeds"] == [0, 1] and nudges["rows"] == 3 and nudges["passed_by_seed"] == [2, 1]
+    assert nudges["passed"] == {"every": 1, "some": 2, "asked": 3}
+    assert nudges["targets"]["b"] == {"every": 2, "some": 2, "asked": 3}
+    assert nudges["targets"]["d"] == {"every": 2, "some": 3, "asked": 3}
+    assert nudges["targets"]["c"]["asked"] == 0
+    assert "passing with every seed - with some: 1-2/3" in format_summary(summarize(rows))
+    assert "nudges" not in summarize([r for r in rows if r["nudge"] == 0])
