@@ -246,7 +246,7 @@ def test_evaluate_takes_outfits_joined_by_plus():
     def garments(text):
         args = SimpleNamespace(clips=[str(DATA / "xia_old_13_000.bvh")], garments=text, speeds="1", fps="60",
                                duration=None, jobs=1, preset="si", resolution=1.0, decimate=None, no_forearms=False,
-                               param=[])
+                               param=[], nudges="0")
         return [run.garment for run in plan(args)]
 
     assert garments("pants + long_skirt, one_piece+pants,cape") == ["pants+long_skirt", "one_piece+pants", "cape"]
