@@ -245,10 +245,10 @@ def test_surface_depth_sees_a_sphere_bulging_between_cloth_points_that_are_all_o
 
 # ----------------------------------------------------------------------------- garment-sim evaluate
 
-ROW_KEYS = {"clip", "garment", "speed", "fps", "nudge", "frames", "bones_frames", "bones_max", "limb_tubes", "legs_off_frames",
-            "deep_frames", "deep_share", "max_depth_mm", "pressed_mm", "surface_depth_mm", "structural_stretch_p99",
-            "structural_stretch_max", "shear_stretch_p99", "shear_stretch_max", "guard_firings", "carried_frames",
-            "joint_glitches", "joint_glitches_text", "targets", "passed", "wall_s"}
+ROW_KEYS = {"clip", "garment", "speed", "fps", "nudge", "frames", "bones_frames", "bones_max", "limb_tubes",
+            "legs_off_frames", "deep_frames", "deep_share", "max_depth_mm", "pressed_mm", "surface_depth_mm",
+            "structural_stretch_p99", "structural_stretch_max", "shear_stretch_p99", "shear_stretch_max",
+            "guard_firings", "carried_frames", "joint_glitches", "joint_glitches_text", "targets", "passed", "wall_s"}
 
 
 def test_evaluate_json_rows_and_summary_on_a_real_clip():
@@ -334,8 +334,14 @@ def test_evaluate_nudges_repeat_each_run_from_a_start_moved_1_um_and_say_which_r
     the summary counts the rows (clip x garment x speed x frame rate) that pass with every seed and with some."""
     import argparse
 
-    from garment_sim_ros.commands.evaluate import (NUDGE_M, add_arguments, format_summary, nudge_free_points, plan,
-                                                   summarize)
+    from garment_sim_ros.commands.evaluate import (
+        NUDGE_M,
+        add_arguments,
+        format_summary,
+        nudge_free_points,
+        plan,
+        summarize,
+    )
 
     parser = argparse.ArgumentParser()
     add_arguments(parser)
