@@ -46,3 +46,12 @@ def test_demo_json_summary_reads_back_from_a_real_run(tmp_path):
     assert summary["frames"] > 10 and summary["fps"] > 1.0
     assert 0.0 <= summary["max_penetration_m"] < 0.001
     assert rrd.stat().st_size > 10_000 and summary["rrd"] == str(rrd)
+
+
+def test_simulate_takes_param_changes_and_refuses_a_bad_one_naming_its_range():
+    result = garment_sim("simulate", "--duration", "0.1", "--json", "--param", "band_gives_way=0",
+                         "--param", "open_cut_band=0")
+    assert result.returncode == 0, result.stderr[-2000:]
+    result = garment_sim("simulate", "--duration", "0.1", "--param", "open_cut_band=0.5")
+    assert result.returncode == 2
+    assert "open_cut_band: got 0.5; allowed: [0.0, 0.1] m" in result.stderr and "Traceback" not in result.stderr

@@ -27,7 +27,7 @@ from typing import Callable
 import numpy as np
 
 from ..cloth.garments import GARMENT_NAMES
-from ..params import PARAMETER_TABLE, PRESETS, ParameterError, preset
+from ..params import PARAM_OPTION_HELP, PRESETS, parse_params, preset
 from ..quality import TARGETS
 from .simulate import DECIMATE_HELP, GARMENTS_HELP
 
@@ -89,8 +89,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-forearms", action="store_true",
                         help="the memo's 10 volumes for the skirts and trousers (default: plus the forearms)")
     parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
-                        help="change a solver parameter of the preset for every run (repeatable; a vector's numbers "
-                             "comma-separated, gravity=0,0,-9.81); checked against the parameter table's range")
+                        help=f"change a solver parameter of the preset for every run ({PARAM_OPTION_HELP})")
     parser.add_argument("--nudges", default="0", metavar="SEEDS",
                         help="comma-separated seeds, one run each: every free point moved 1 um in a random direction "
                              "after dressing (0: not moved; default 0); the summary says which rows pass with every "
@@ -106,22 +105,6 @@ def _numbers(option: str, text: str) -> list[float]:
     if not values or not all(math.isfinite(v) and v > 0 for v in values):
         raise ValueError(f"{option}: every value must be a number > 0, got {text!r}")
     return values
-
-
-def parse_params(texts: list[str], preset_name: str = "si") -> tuple[tuple[str, object], ...]:
-    """``--param NAME=VALUE`` options as (name, value) pairs, each checked against ``params.PARAMETER_TABLE``
-    (``ParameterError`` names the parameter and its range; a later option for the same name wins)."""
-    changes = {}
-    for text in texts:
-        name, equals, value = text.partition("=")
-        name = name.strip()
-        if not equals or not name:
-            raise ValueError(f"--param: expected NAME=VALUE, got {text!r}")
-        if name not in PARAMETER_TABLE:
-            raise ParameterError(f"--param: unknown parameter {name!r}; known: {', '.join(PARAMETER_TABLE)}")
-        changes[name] = PARAMETER_TABLE[name].parse(value.strip())
-    preset(preset_name).replace(**changes)  # the whole set checked as the runs will build it
-    return tuple(changes.items())
 
 
 def _seeds(text: str) -> list[int]:

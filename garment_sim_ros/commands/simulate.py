@@ -12,7 +12,7 @@ from ..body.sources import GAITS, bvh_source, procedural_source
 from ..cloth.garments import GARMENT_NAMES
 from ..cloth.spec import parse_garment_list
 from ..dressing import make_character
-from ..params import DEFAULT_PARAMS, PRESETS, preset
+from ..params import DEFAULT_PARAMS, PARAM_OPTION_HELP, PRESETS, parse_params, preset
 
 HELP = ("Dress the procedural walking character (or a BVH clip) and simulate it without ROS, printing "
         "per-frame figures: substeps, stage times, stretch and penetration; --export writes the run "
@@ -40,6 +40,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--resolution", type=float, default=1.0, help="garment resolution factor")
     parser.add_argument("--decimate", type=int, default=None, metavar="VERTICES", help=DECIMATE_HELP)
     parser.add_argument("--preset", default="si", choices=sorted(PRESETS), help="parameter preset")
+    parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                        help=f"change a solver parameter of the preset ({PARAM_OPTION_HELP})")
     parser.add_argument("--every", type=int, default=10, help="print every N-th frame (default 10)")
     parser.add_argument("--json", action="store_true", help="one JSON object per printed frame, then a summary")
 
@@ -99,7 +101,7 @@ def run(args) -> int:
         raise ValueError("--fps and --duration must be > 0")
     if args.export and not args.export.endswith(".npz"):
         raise ValueError(f"--export: {args.export!r} must end in .npz")
-    params = preset(args.preset)
+    params = preset(args.preset).replace(**dict(parse_params(args.param, args.preset)))
     source = run_source(args, params)
     character = make_character(source.rest_pose, source.joint_map, garments, params, args.resolution,
                                decimate_to=args.decimate, motion=source.fit_poses())
