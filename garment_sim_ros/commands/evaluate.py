@@ -56,10 +56,9 @@ class Run:
 
 
 # The run's free points are moved this far (m) after dressing, each in a seeded random direction (``--nudges``):
-# far below anything visible, about what a different thread count or build rounds to over a few frames. The cloth
-# on the acrobatic clips is chaotic (a pinch decides which side a fold goes): a row that passes or fails with one
-# nudge and not another is decided by its trajectory, not by the method (docs/real_motion.md, "How much of a row
-# is chance").
+# a thousandth of the depth tolerance, far below anything visible. The cloth on the acrobatic clips is chaotic (a
+# pinch decides which side a fold goes): a row that passes or fails with one nudge and not another is decided by its
+# trajectory, not by the method (docs/real_motion.md, "Two rules on by default, judged over nudged starts").
 NUDGE_M = 1e-6
 
 
