@@ -49,8 +49,8 @@ def test_cloth_between_a_forearm_along_the_hip_and_the_pelvis_has_a_place_outsid
     contact plane, and every such point is put outside the body within 5 mm (3.8 mm measured); with the
     nearest points' line only, 14 stayed inside, 8.7 mm deep, after a move of up to 17 mm."""
     source = bvh_source(str(DATA / "cc_cmu_02_04_jump_balance.bvh"), loop=False)
-    character = make_character(source.rest_pose, source.joint_map, ["short_skirt"],
-                               preset("si").replace(**dict(HELD_BAND)), motion=source.fit_poses())
+    character = make_character(source.rest_pose, source.joint_map, ["short_skirt"], preset("si"),
+                               motion=source.fit_poses())
     volumes = character.solvers[0].volumes
     pelvis, forearm = volumes.names().index("pelvis"), volumes.names().index("right_lower_arm")
     pose = source.pose(0.683)
@@ -112,7 +112,7 @@ def test_a_forearm_leaving_the_waistband_takes_no_cloth_with_it(garment):
 def test_the_waistband_gives_way_under_a_forearm_lying_on_it(garment, most):
     """Issue 11 (b), the CC jump, 1x at 60 fps, 1.6 s: at 1.08-1.42 s the right forearm lies on the waistband,
     whose skinned points are inside its volume on both sides of its bone, so no move of the free cloth clears
-    the bone (by default: 8 frames with a bone through on the short skirt, 4 on the trousers). With
+    the bone (with the band held: 8 frames with a bone through on the short skirt, 4 on the trousers). With
     ``band_gives_way`` the attached points' targets inside a forearm's volume go out of it across its axis
     towards the trunk (``kernels.push_out_of_volumes``), the band under the forearm: 0 and 1."""
     row = evaluate_run(Run(str(DATA / "cc_cmu_02_04_jump_balance.bvh"), garment, 1.0, 60.0, 1.6,
@@ -169,8 +169,9 @@ def test_a_skirt_caught_on_the_upper_arm_at_the_shoulder_goes_off_past_the_shoul
     goes off past that end (``crossing._bone_end_clear``): none. Since ``edge_pinch_depth`` is on by default that 1x
     window holds one bone frame with or without the rule; the run at 2x, 60 fps, to 3.3 s, holds 7 without it
     (measured with the rule's branch switched off) and none with it."""
+    # one trajectory (the old defaults'): after a 1 mm nudge at frame 1, 4 runs of 11 had a bone frame
     row = evaluate_run(Run(str(DATA / "cc_cmu_05_06_dance_cartwheel_pirouette.bvh"), "long_skirt", 2.0, 60.0, 3.3,
-                           params=HELD_BAND))  # one trajectory: a 1 mm nudge at frame 1 gives a bone frame 4 in 11
+                           params=HELD_BAND))
     assert row["frames"] == 198
     assert row["bones_frames"] == 0, row["bones_frames"]
 
@@ -420,8 +421,8 @@ def test_the_trousers_seat_on_the_pelvis_open_bottom_leaves_through_it():
     taut seat lies on the pelvis' bottom cut (open to the thighs below); each length-correction sweep pulled a
     seat point a few mm up through it and the contact handling put it 31-72 mm sideways onto the rim, and the
     edges then left springs at 4-7 rest lengths (4 bone frames, longest spring 7.40). A point within
-    ``open_cut_band`` (opt-in, 3 mm) of that cut leaves through it: no bone through, no spring past twice its rest
-    length; with it off (the default) the runaway is there."""
+    ``open_cut_band`` (3 mm, the default) of that cut leaves through it: no bone through, no spring past twice its
+    rest length; with it off (and the band held, as when the runaway was recorded) the runaway is there."""
     rows = [evaluate_run(Run(str(DATA / "cc_cmu_02_04_jump_balance.bvh"), "pants", 3.0, 30.0, 3.0,
                              params=(("open_cut_band", band), ("band_gives_way", 0)))) for band in (0.0, 0.003)]
     assert rows[0]["bones_frames"] > 0 and rows[0]["structural_stretch_max"] > 4.0, rows[0]
