@@ -96,7 +96,7 @@ PARAMETERS: tuple[Param, ...] = (
           "Provot length-correction iterations per substep (contacts are handled after the first)"),
     Param("limit_ratio", 0.01, "1", 0.0, 1.0,
           "springs longer than (1 + limit_ratio) x rest length are shortened"),
-    Param("strain_limit_iterations", 12, "1", 0, 200,
+    Param("strain_limit_iterations", 48, "1", 0, 200,
           "length-correction iterations after collision handling (the last projection of a substep), each "
           "followed by the in-contact points' collision handling; points in contact move by contact_mobility of "
           "their share, points it would leave deeper in a volume stay; 0: off"),

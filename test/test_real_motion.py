@@ -95,30 +95,39 @@ def test_a_forearm_at_the_hip_does_not_stay_caught_under_the_waistband():
 def test_a_forearm_leaving_the_waistband_takes_no_cloth_with_it(garment):
     """Issue 11 (b), the CC jump, 1x at 60 fps, the whole clip: at 1.08-1.20 s the right forearm lies on the
     waistband (the band's attached points within 25 mm of the bone, on both sides of it) and its wrist end gets
-    under the band. From 1.22 s the hand leaves the hip and the band is 34-127 mm from the bone, but the band-row
-    triangle the bone crossed, caught, was left, and the crossing passed on as its free corners moved: the bone
-    stayed through to 1.38 s on main (11 frames on each garment). A caught triangle goes off the bone past the
-    limb's free end, the wrist (``crossing._push_off_axis``): none after 1.20 s."""
+    under the band. From 1.22 s the hand leaves the hip and the band is 34-127 mm from the bone; a band-row
+    triangle the bone crossed, caught, used to stay on it (to 1.38 s, 11 frames on each garment). On the defaults
+    the band gives way under the forearm (``band_gives_way``, dragging its neighbours along) and a caught
+    triangle goes off past the wrist (``crossing._push_off_axis``): no bone through after 1.20 s, with every one
+    of three starts (measured 2026-12-01). With the band held where it is skinned (the conditions this test was
+    first written for) the frames after 1.20 s are decided by the trajectory: 0-10 by start and machine
+    (docs/real_motion.md, "A band that gives way without tearing")."""
     source = bvh_source(str(DATA / "cc_cmu_02_04_jump_balance.bvh"), loop=False)
-    character = make_character(source.rest_pose, source.joint_map, [garment], preset("si").replace(**dict(HELD_BAND)),
-                               motion=source.fit_poses())
+    character = make_character(source.rest_pose, source.joint_map, [garment], preset("si"), motion=source.fit_poses())
     through = [reports[0].bones_through for _, _, reports in simulate_frames(source, character, np.arange(241) / 60.0)
                if reports is not None]
-    assert len(through) == 240 and any(through[64:72])  # the forearm on the band
+    assert len(through) == 240
     assert not any(through[72:]), [i + 1 for i, n in enumerate(through) if n and i >= 72]
 
 
-@pytest.mark.parametrize("garment, most", [("short_skirt", 0), ("pants", 1)])
-def test_the_waistband_gives_way_under_a_forearm_lying_on_it(garment, most):
+def test_the_waistband_gives_way_under_a_forearm_lying_on_it():
     """Issue 11 (b), the CC jump, 1x at 60 fps, 1.6 s: at 1.08-1.42 s the right forearm lies on the waistband,
     whose skinned points are inside its volume on both sides of its bone, so no move of the free cloth clears
-    the bone (with the band held: 8 frames with a bone through on the short skirt, 4 on the trousers). With
-    ``band_gives_way`` the attached points' targets inside a forearm's volume go out of it across its axis
-    towards the trunk (``kernels.push_out_of_volumes``), the band under the forearm: 0 and 1."""
-    row = evaluate_run(Run(str(DATA / "cc_cmu_02_04_jump_balance.bvh"), garment, 1.0, 60.0, 1.6,
-                           params=(("band_gives_way", 1),)))
-    assert row["frames"] == 96
-    assert row["bones_frames"] <= most, row["bones_frames"]
+    the bone. With ``band_gives_way`` the attached points' targets inside a forearm's volume go out of it across
+    its axis towards the trunk (``kernels.push_out_of_volumes``), dragging their neighbours along the band
+    (``kernels.spread_along_band``), the band under the forearm. The short skirt: no bone through with the rule in
+    each of three starts (held: 9, 9, 2 frames); the trousers, where the thighs pinch the cloth too, fewer frames
+    over the three starts (measured 2026-12-01: held 3 + 3 + 11, giving way 2 + 4 + 1)."""
+    def frames(garment, on, nudge):
+        row = evaluate_run(Run(str(DATA / "cc_cmu_02_04_jump_balance.bvh"), garment, 1.0, 60.0, 1.6,
+                               params=(("band_gives_way", on),), nudge=nudge))
+        assert row["frames"] == 96
+        return row["bones_frames"]
+
+    skirt = [(frames("short_skirt", 0, nudge), frames("short_skirt", 1, nudge)) for nudge in (0, 1, 2)]
+    assert all(held > 0 and given == 0 for held, given in skirt), skirt
+    trousers = np.array([(frames("pants", 0, nudge), frames("pants", 1, nudge)) for nudge in (0, 1, 2)])
+    assert trousers[:, 1].sum() < trousers[:, 0].sum(), trousers
 
 
 def test_a_neckline_does_not_give_way_under_a_forearm():
@@ -234,28 +243,32 @@ def test_undoing_the_strain_limiting_does_not_put_cloth_back_into_the_body():
     assert row["max_depth_mm"] <= 1.0, row["max_depth_mm"]
 
 
-def test_a_skirt_over_the_inverted_chest_slides_off_rather_than_tears():
-    """CC cartwheel, long skirt, 1x at 60 fps, to 2.5 s (issue 11 (b), (d)): upside down (1.9-2.5 s) the skirt falls
-    over the chest, the right upper arm pressed against it. The strain limiting's length correction pulled the
-    springs wrapped round the chest and the arm short, and the contact handling after each sweep put every point
-    it had pulled into a volume back out on the side it came from at the substep's start: round the volume
-    again, the springs as long as before (2.3-3.1 x their rest length after every sweep, 1.3 after its
-    correction). Handled static (``strain_limit_slide``, opt-in), a point goes out across the nearest surface: the
-    cloth pulled taut across a limb slides off it (and off the left forearm leaving the waistband at 2.42 s). Off
-    (the default): the worst frame's structural p99 2.03, a spring 9.3 rest lengths long, a bone through the skirt
-    in 12 frames, the guard fired once. Measured with the edges always moved out (``edge_pinch_depth`` 0): with its
-    default (1 cm) the skirt is not carried round the chest there (p99 1.49, longest spring 3.8 at 1x 60 fps, 3 s),
-    and the slide on top of it ends at p99 2.41."""
+def test_the_strain_limiting_slide_is_an_opt_in_for_garments_without_limb_tubes():
+    """``strain_limit_slide`` (opt-in): the strain limiting's contact handling puts a point the correction pulled into
+    a volume out across the nearest surface (static), in garments without limb tubes; a trouser leg keeps the side
+    it came from. On the CC cartwheel's long skirt, 1x at 60 fps, to 2.5 s (upside down from 1.9 s, the skirt over
+    the chest, the band held), it changes the run and keeps it out of the body. What it was adopted for there (p99
+    2.03 -> 1.05) was one trajectory: measured 2026-12-01 on the defaults of then (48 strain-limiting sweeps), over
+    three starts the worst frame's structural p99 is 1.40 / 1.35 / 1.43 without it and 2.04 / 1.45 / 1.05 with it
+    (docs/real_motion.md, "A band that gives way without tearing"); so it stays off by default and no gain is
+    claimed."""
+    params = preset("si").replace(strain_limit_slide=1)
+    source = bvh_source(str(DATA / "cc_cmu_05_06_dance_cartwheel_pirouette.bvh"), loop=False)
+    character = make_character(source.rest_pose, source.joint_map, ["long_skirt", "pants"], params,
+                               motion=source.fit_poses())
+    assert [solver.limit_slides for solver in character.solvers] == [True, False]
+    assert not any(solver.limit_slides for solver in make_character(
+        source.rest_pose, source.joint_map, ["long_skirt"], preset("si"), motion=source.fit_poses()).solvers)
+
     def slide(character):
         for solver in character.solvers:
-            solver.set_params(solver.params.replace(strain_limit_slide=1, edge_pinch_depth=0.0))
+            solver.set_params(solver.params.replace(strain_limit_slide=1))
 
-    row = evaluate_run(Run(str(DATA / "cc_cmu_05_06_dance_cartwheel_pirouette.bvh"), "long_skirt", 1.0, 60.0, 2.5,
-                           params=HELD_BAND), after_dressing=slide)
-    assert row["frames"] == 150
-    assert row["structural_stretch_p99"] <= 1.05 and row["shear_stretch_p99"] <= 1.05
-    assert row["structural_stretch_max"] < 2.0
-    assert row["bones_frames"] == 0
+    rows = [evaluate_run(Run(str(DATA / "cc_cmu_05_06_dance_cartwheel_pirouette.bvh"), "long_skirt", 1.0, 60.0, 2.5,
+                             params=HELD_BAND), after_dressing=after) for after in (None, slide)]
+    assert rows[0]["frames"] == rows[1]["frames"] == 150
+    assert rows[0]["structural_stretch_p99"] != rows[1]["structural_stretch_p99"]
+    assert all(row["max_depth_mm"] < 5.0 for row in rows), [row["max_depth_mm"] for row in rows]
 
 
 def _watch_hem(hem_stretch: list):
@@ -417,17 +430,21 @@ def test_the_trousers_seat_goes_round_the_flexed_thighs_of_a_crouch():
 
 
 def test_the_trousers_seat_on_the_pelvis_open_bottom_leaves_through_it():
-    """CC jump, trousers, 3x at 30 fps, the whole clip (issue 11 (b), (d)): in the crouch before the take-off the
-    taut seat lies on the pelvis' bottom cut (open to the thighs below); each length-correction sweep pulled a
-    seat point a few mm up through it and the contact handling put it 31-72 mm sideways onto the rim, and the
-    edges then left springs at 4-7 rest lengths (4 bone frames, longest spring 7.40). A point within
-    ``open_cut_band`` (3 mm, the default) of that cut leaves through it: no bone through, no spring past twice its
-    rest length; with it off (and the band held, as when the runaway was recorded) the runaway is there."""
-    rows = [evaluate_run(Run(str(DATA / "cc_cmu_02_04_jump_balance.bvh"), "pants", 3.0, 30.0, 3.0,
-                             params=(("open_cut_band", band), ("band_gives_way", 0)))) for band in (0.0, 0.003)]
-    assert rows[0]["bones_frames"] > 0 and rows[0]["structural_stretch_max"] > 4.0, rows[0]
-    assert rows[1]["bones_frames"] == 0, rows[1]["bones_frames"]
-    assert rows[1]["structural_stretch_max"] < 2.0, rows[1]["structural_stretch_max"]
+    """CC jump, trousers, 3x at 30 fps, 3 s (issue 11 (b), (d)): in the crouch before the take-off the taut seat lies
+    on the pelvis' bottom cut (open to the thighs below); each length-correction sweep pulled a seat point a few mm
+    up through it and the contact handling put it 31-72 mm sideways onto the rim, and the edges then left springs
+    at 4-7 rest lengths (bone frames, longest spring 7.40). A point within ``open_cut_band`` (3 mm, the default) of
+    that cut leaves through it. With it off (and the band held, as when the runaway was recorded) the runaway is
+    there in each of three starts; with it, fewer bone frames and a shorter longest spring in each (measured
+    2026-12-01: bone frames 3 / 4 / 3 -> 2 / 3 / 1, longest 7.4 / 4.75 / 5.89 -> 1.93 / 2.8 / 3.94)."""
+    for nudge in (0, 1, 2):
+        rows = [evaluate_run(Run(str(DATA / "cc_cmu_02_04_jump_balance.bvh"), "pants", 3.0, 30.0, 3.0,
+                                 params=(("open_cut_band", band), ("band_gives_way", 0)), nudge=nudge))
+                for band in (0.0, 0.003)]
+        figures = [(row["bones_frames"], round(row["structural_stretch_max"], 2)) for row in rows]
+        assert rows[0]["bones_frames"] > 0 and rows[0]["structural_stretch_max"] > 4.0, (nudge, figures)
+        assert rows[1]["bones_frames"] < rows[0]["bones_frames"], (nudge, figures)
+        assert rows[1]["structural_stretch_max"] < rows[0]["structural_stretch_max"], (nudge, figures)
 
 
 def test_dressing_does_not_use_the_open_cut_exit():

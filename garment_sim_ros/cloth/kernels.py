@@ -273,6 +273,51 @@ def push_out_of_volumes(targets, positions, rotations, kinds, radii, cuts, chose
 
 
 @njit(cache=True)
+def spread_along_band(targets, skinned, springs, rest, limit_ratio):
+    """A band's springs between attached targets (A, 3) m kept within ``(1 + limit_ratio) x rest`` after some
+    targets were moved off their ``skinned`` places (A, 3) m (``push_out_of_volumes``): of a spring (``springs``
+    (B, 2) indices into the targets, ``rest`` (B,) m) with a moved end that is longer than that, the end moved
+    less is pulled along the spring to that length, so that a moved stretch of band drags its neighbours with
+    it, a ramp rather than a tear. Sweeps in the springs' order and against it, repeated while such a spring
+    is over, at most ``targets.shape[0]`` times (a ramp as long as the band); a spring with neither end moved
+    is left as skinned. Returns the longest length / rest length of the springs with a moved end."""
+    worst = 0.0
+    for _ in range(targets.shape[0]):
+        worst = 0.0
+        for sweep in range(2):
+            for m in range(springs.shape[0]):
+                s = m if sweep == 0 else springs.shape[0] - 1 - m
+                a, b = springs[s, 0], springs[s, 1]
+                moved_a = _squared_distance(targets, skinned, a)
+                moved_b = _squared_distance(targets, skinned, b)
+                if moved_a == 0.0 and moved_b == 0.0:
+                    continue
+                dx, dy, dz, length = _spring_vector(targets, a, b)
+                worst = max(worst, length / rest[s])
+                limit = (1.0 + limit_ratio) * rest[s]
+                if length <= limit:
+                    continue
+                pull = (length - limit) / length
+                if moved_a < moved_b:  # a follows b
+                    targets[a, 0] += pull * dx
+                    targets[a, 1] += pull * dy
+                    targets[a, 2] += pull * dz
+                else:
+                    targets[b, 0] -= pull * dx
+                    targets[b, 1] -= pull * dy
+                    targets[b, 2] -= pull * dz
+        if worst <= 1.0 + limit_ratio + 1e-9:
+            break
+    return worst
+
+
+@njit(cache=True, inline="always")
+def _squared_distance(x, y, i):
+    """|x[i] - y[i]|^2."""
+    return (x[i, 0] - y[i, 0]) ** 2 + (x[i, 1] - y[i, 1]) ** 2 + (x[i, 2] - y[i, 2]) ** 2
+
+
+@njit(cache=True)
 def spring_stretches(x, springs, rest, out):
     """Length / rest length of the first ``len(out)`` springs (S, 2) of points ``x`` (N, 3) into ``out``;
     returns the largest (0 for none). The one stretch figure of the solver, its guard and ``quality``."""

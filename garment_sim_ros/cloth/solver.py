@@ -183,6 +183,14 @@ class GarmentSolver:
         self._forearm_volumes = np.array(
             [] if volumes is None or "pelvis" not in model.attachment_frames else
             [k for k in np.flatnonzero(volumes.forearms()) if volumes.volumes[k].frame not in names], dtype=np.int64)
+        # the band's own springs (structural and shear, both ends attached), ends as indices into the attached
+        # points: where the band gives way, its moved points drag their neighbours (``kernels.spread_along_band``)
+        attached_index = np.full(model.num_points, -1, dtype=np.int64)
+        attached_index[model.attached] = np.arange(len(model.attached))
+        ends = attached_index[model.springs[:model.num_correction_springs]]
+        band = np.flatnonzero((ends >= 0).all(axis=1))
+        self._band_springs = np.ascontiguousarray(ends[band])
+        self._band_rest = np.ascontiguousarray(model.rest_lengths[band])
         n = model.num_points
         self._x_start = np.zeros((n, 3))
         self._forces = np.zeros((n, 3))
@@ -243,10 +251,19 @@ class GarmentSolver:
             # a forearm lying on the band (a hand on the hip) would hold skinned points inside it, on both sides
             # of its bone, where no move of the free cloth clears the bone: the band gives way under it
             positions, rotations = self._local_volume_poses(root_position, root_yaw, frame_positions, frame_rotations)
-            volumes = self.volumes
-            kernels.push_out_of_volumes(targets, positions, rotations, volumes.kinds, volumes.radii, volumes.cuts,
-                                        self._forearm_volumes, self.params.collision_epsilon)
+            volumes, skinned = self.volumes, targets.copy()
+            push = (positions, rotations, volumes.kinds, volumes.radii, volumes.cuts, self._forearm_volumes,
+                    self.params.collision_epsilon)
+            kernels.push_out_of_volumes(targets, *push)
+            for _ in range(self.BAND_ROUNDS):  # a point dragged into the forearm goes out again, and drags on
+                kernels.spread_along_band(targets, skinned, self._band_springs, self._band_rest,
+                                          self.params.limit_ratio)
+                kernels.push_out_of_volumes(targets, *push)
         return targets
+
+    # Rounds of dragging the band along the moved points and pushing it out of the forearms again
+    # (``_attachment_targets``); each round ends out of the forearms.
+    BAND_ROUNDS = 3
 
     def _local_volume_poses(self, root_position, root_yaw, frame_positions, frame_rotations):
         """The volumes' poses in the simulation frame (``self.frames`` starts with ``volumes.frames``)."""
