@@ -280,7 +280,8 @@ def spread_along_band(targets, skinned, springs, rest, limit_ratio):
     less is pulled along the spring to that length, so that a moved stretch of band drags its neighbours with
     it, a ramp rather than a tear. Sweeps in the springs' order and against it, repeated while such a spring
     is over, at most ``targets.shape[0]`` times (a ramp as long as the band); a spring with neither end moved
-    is left as skinned. Returns the longest length / rest length of the springs with a moved end."""
+    is left as skinned. Returns the longest length / rest length of a spring with a moved end met in the last
+    round, before its pulls (at most ``1 + limit_ratio`` once converged), as ``length_correction`` reports."""
     worst = 0.0
     for _ in range(targets.shape[0]):
         worst = 0.0
