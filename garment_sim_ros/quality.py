@@ -32,14 +32,7 @@ from numba import njit
 
 from .cloth.kernels import spring_stretches
 from .cloth.model import SHEAR, STRUCTURAL
-from .collision.crossing import (
-    AXIS_BLOCK,
-    axis_block_count,
-    block_boxes,
-    segment_crosses_triangle,
-    segment_misses_block,
-    segment_misses_triangle_box,
-)
+from .collision.crossing import segments_through_triangles
 from .collision.geometry import to_local
 from .transforms import quat_to_matrix
 
@@ -59,36 +52,6 @@ PERCENTILE = 99.0  # the "p99" of the stretch figures
 
 
 # ----------------------------------------------------------------------------- kernels
-
-@njit(cache=True)
-def segments_through_triangles(starts, ends, x, triangles, crossed):
-    """Which segments (``starts``, ``ends``: (B, 3)) cross any triangle (T, 3) of points ``x`` (N, 3).
-
-    Writes ``crossed`` (B,) bool and returns how many do. A segment touching a triangle's edge or
-    vertex crosses; one parallel to a triangle's plane (in it or not) does not cross that triangle.
-    """
-    n_triangles = triangles.shape[0]
-    boxes = np.empty((axis_block_count(n_triangles), 6))
-    block_boxes(x, triangles, boxes)  # most runs of triangles are nowhere near a bone (``crossing.handle_axes``)
-    count = 0
-    for k in range(starts.shape[0]):
-        px, py, pz = starts[k, 0], starts[k, 1], starts[k, 2]
-        qx, qy, qz = ends[k, 0], ends[k, 1], ends[k, 2]
-        dx, dy, dz = qx - px, qy - py, qz - pz
-        crossed[k] = False
-        for block in range(boxes.shape[0]):
-            if crossed[k] or segment_misses_block(boxes, block, px, py, pz, qx, qy, qz):
-                continue
-            for t in range(block * AXIS_BLOCK, min((block + 1) * AXIS_BLOCK, n_triangles)):
-                a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-                if segment_misses_triangle_box(x, a, b, c, px, py, pz, qx, qy, qz):
-                    continue
-                if segment_crosses_triangle(px, py, pz, dx, dy, dz, x, a, b, c)[0]:
-                    crossed[k] = True
-                    count += 1
-                    break
-    return count
-
 
 @njit(cache=True)
 def rings_around(x, ring_vertices, ring_starts, ring_volumes, pos, rot, cuts, around):

@@ -686,6 +686,23 @@ def sweep(collider, x_start, x):
     return before, moved, v
 
 
+def test_the_collider_counts_the_volumes_bones_through_the_cloth():
+    """``Collider.bones_through`` (the frame retries' damage, issue 11 (b)): the metric's crossing test on the bones
+    the volumes carry, at their end poses, turned and moved with them; a volume without a bone does not count."""
+    centres = np.array([[0.0, 0, 0], [0.5, 0, 0], [0.0, 0, 0]])
+    c = make_collider([forearm(), forearm(name="other"), sphere()], 4, centres)
+    assert c.bones_through(strip(0.0), STRIP_TRIANGLES) == 1
+    assert c.bones_through(strip(0.5), STRIP_TRIANGLES) == 1  # the other's
+    assert c.bones_through(strip(0.25), STRIP_TRIANGLES) == 0  # between them, and through the sphere
+    turned = np.array([np.sin(np.pi / 4), 0.0, 0.0, np.cos(np.pi / 4)])  # 90 deg about x: its bone along y
+    rotations = np.array([turned, IDENTITY_QUAT, IDENTITY_QUAT])
+    c.begin_frame(centres, rotations, centres, rotations)
+    assert c.bones_through(strip(0.0), STRIP_TRIANGLES) == 0  # in the level strip's plane: not through it
+    upright = strip(0.0)[:, [0, 2, 1]]  # the strip stood up in the x-z plane, across the turned bone
+    assert c.bones_through(upright, STRIP_TRIANGLES) == 1
+    assert c.bones_through(upright + [0.0, 0.2, 0.0], STRIP_TRIANGLES) == 0  # past the bone's end (12 cm)
+
+
 def test_a_limb_swept_between_two_cloth_points_pushes_the_cloth_instead_of_passing_through():
     """An upright limb moves 10 cm into a level strip through its leading edge, whose points lie 8 cm
     either side of its path: no point is ever within its 3 cm radius, so point (and edge) handling leave

@@ -315,9 +315,10 @@ def test_cloth_between_volumes_closer_than_its_room_lies_between_flat_faces():
     lengths at frame 7, failing issue 11's bound of 1.5). Within ``press_gap`` (15 mm) the pair gets a
     plane, each face cut back to leave that room, and the cloth lies between flat faces: no spring past 1.5,
     no point deeper than 1 mm."""
-    stretch, depth, apart = _forearm_beside_the_hip(DEFAULT_PARAMS)
+    once = DEFAULT_PARAMS.replace(frame_retries=0)  # the planes' doing, not a retried frame's
+    stretch, depth, apart = _forearm_beside_the_hip(once)
     assert stretch.max() <= 1.5
     assert depth <= 0.001
     assert 2.0 * EPS < apart < DEFAULT_PARAMS.press_gap
-    narrow, _, _ = _forearm_beside_the_hip(DEFAULT_PARAMS.replace(press_gap=2.0 * EPS))
+    narrow, _, _ = _forearm_beside_the_hip(once.replace(press_gap=2.0 * EPS))
     assert narrow.max() > 1.5

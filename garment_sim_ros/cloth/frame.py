@@ -67,7 +67,8 @@ class FrameInput:
 
 @dataclass
 class FrameReport:
-    substeps: int = 0
+    substeps: int = 0  # of the frame's last try
+    retries: int = 0  # times the frame ran again with twice the substeps (``GarmentSolver.RETRY_STRETCH``)
     substep_s: float = 0.0
     simulated_s: float = 0.0
     lag_s: float = 0.0

@@ -257,6 +257,21 @@ class Collider:
         return int(crossing.handle_axes(self._packed, x_start, x, v, inv_mass, h, triangles, self._eps, AXIS_PASSES,
                                         self._corners, self._triangle_boxes))
 
+    def bones_through(self, x, triangles) -> int:
+        """How many of the volumes' bones (``Volume.bone``) cross a triangle (T, 3) of ``x`` (N, 3) m at the
+        substep-end poses: issue 11's (b) on the body's volumes (``quality`` measures it on the skeleton's joints,
+        which the bones were fitted round)."""
+        self._check_triangles(triangles)
+        arrays = self.arrays
+        boned = ~np.isnan(arrays.bones[:, 0])
+        if not boned.any():
+            return 0
+        axes = arrays.rot1[boned, :, 2]  # the local z axes, simulation frame
+        starts = arrays.pos1[boned] + axes * arrays.bones[boned, :1]
+        ends = arrays.pos1[boned] + axes * arrays.bones[boned, 1:]
+        return int(crossing.segments_through_triangles(starts, ends, np.ascontiguousarray(x, dtype=np.float64),
+                                                       triangles, np.zeros(len(starts), dtype=np.bool_)))
+
     def penetration_depths(self, x) -> np.ndarray:
         """(N,) metres inside the deepest volume at the substep-end poses, 0 outside.
 

@@ -151,6 +151,7 @@ def run(args) -> int:
         if frame % max(1, args.every) == 0 or frame == frames:
             row = {
                 "frame": frame, "t": round(t, 4), "substeps": reports[0].substeps,
+                "retries": max(r.retries for r in reports),
                 "integration_ms": sum(r.integration_s for r in reports) * 1e3,
                 "correction_ms": sum(r.correction_s for r in reports) * 1e3,
                 "collision_ms": sum(r.collision_s for r in reports) * 1e3,

@@ -1,15 +1,19 @@
-"""What the strain limiting's iterations cost on real clips (issue 11, target d): the solver's step per frame.
+"""What a solver parameter's values cost on real clips (issue 11): the solver's step per frame.
 
-Each garment on each clip (1x, 60 fps, the first ``--seconds`` after dressing) is played once per
-``--iterations`` value (``strain_limit_iterations``), the values in turn garment by garment so that the machine's
+Each garment on each clip (1x, 60 fps, the first ``--seconds`` after dressing) is played once per value of
+``--param`` (``--values``; default ``strain_limit_iterations`` 12 and 48), the values in turn garment by garment so
+that the machine's
 load falls on all of them alike, numba on one thread. Per frame the thread's CPU time of
 ``DressedCharacter.step(measure=False)`` (the solver alone, no quality figures; ``time.thread_time``, which other
 processes do not inflate). One JSON line per clip, garment and value: median, p99 and worst ms per frame, and the
 median's ratio to the first value's; then one line per value over every run: the mean of the per-run medians and
-of the per-run p99s, and their ratio to the first value's. The limiting stops early once no spring is past
-``1 + limit_ratio + strain_limit_tolerance``, so more iterations cost only in the frames that need them.
+of the per-run p99s, and their ratio to the first value's. Parameters that act only where the cloth needs them
+(the strain limiting stops once no spring is past ``1 + limit_ratio + strain_limit_tolerance``; ``frame_retries``
+runs a frame again only when it tore the cloth or let a bone through) cost only in those frames: the p99 and the
+worst frame show it.
 
-    PYTHONPATH=$PWD python bench/strain_iterations.py [--iterations 12 48] [--seconds 4] [--clips ...]
+    PYTHONPATH=$PWD python bench/param_cost.py [--param strain_limit_iterations] [--values 12 48] [--seconds 4]
+                                               [--clips ...]
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from garment_sim_ros import benchmarking
 from garment_sim_ros.body.sources import bvh_source
 from garment_sim_ros.cloth.garments import GARMENT_NAMES
 from garment_sim_ros.dressing import make_character
-from garment_sim_ros.params import DEFAULT_PARAMS
+from garment_sim_ros.params import DEFAULT_PARAMS, PARAMETER_TABLE
 
 DATA = Path(__file__).resolve().parent.parent / "test" / "data"
 CLIPS = ("cc_cmu_07_01_walk", "cmu_01_01_jumps_turnaround", "cmu_131_01_walk_mjstyle",
@@ -34,9 +38,9 @@ CLIPS = ("cc_cmu_07_01_walk", "cmu_01_01_jumps_turnaround", "cmu_131_01_walk_mjs
 FPS = 60.0
 
 
-def frame_times(clip: str, garment: str, iterations: int, seconds: float) -> np.ndarray:
-    """ms of thread CPU time per frame of the solver's step."""
-    params = DEFAULT_PARAMS.replace(strain_limit_iterations=iterations)
+def frame_times(clip: str, garment: str, param: str, value, seconds: float) -> np.ndarray:
+    """ms of thread CPU time per frame of the solver's step with ``param`` at ``value``."""
+    params = DEFAULT_PARAMS.replace(**{param: value})
     source = bvh_source(str(DATA / f"{clip}.bvh"), loop=False, params=params)
     character = make_character(source.rest_pose, source.joint_map, [garment], params, motion=source.fit_poses())
     frames = int(min(seconds, source.duration) * FPS)
@@ -53,29 +57,34 @@ def frame_times(clip: str, garment: str, iterations: int, seconds: float) -> np.
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--iterations", type=int, nargs="+", default=[12, 48])
+    parser.add_argument("--param", default="strain_limit_iterations", help="a solver parameter (params.py)")
+    parser.add_argument("--values", nargs="+", default=["12", "48"], help="its values, the first the baseline")
     parser.add_argument("--seconds", type=float, default=4.0)
     parser.add_argument("--clips", nargs="+", default=list(CLIPS))
     args = parser.parse_args()
+    if args.param not in PARAMETER_TABLE:
+        parser.error(f"--param: unknown parameter {args.param!r}")
+    kind = type(getattr(DEFAULT_PARAMS, args.param))
+    values = [kind(float(v)) for v in args.values]
     benchmarking.set_threads(1)
-    frame_times(args.clips[0], GARMENT_NAMES[0], args.iterations[0], 0.1)  # compile before timing
-    summary: dict[int, list[tuple[float, float]]] = {n: [] for n in args.iterations}
+    frame_times(args.clips[0], GARMENT_NAMES[0], args.param, values[0], 0.1)  # compile before timing
+    summary: dict = {n: [] for n in values}
     for clip in args.clips:
         for garment in GARMENT_NAMES:
             first = None
-            for n in args.iterations:
-                times = frame_times(clip, garment, n, args.seconds)
+            for n in values:
+                times = frame_times(clip, garment, args.param, n, args.seconds)
                 median, p99 = float(np.median(times)), float(np.percentile(times, 99))
                 first = median if first is None else first
                 summary[n].append((median, p99))
-                print(json.dumps({"clip": clip, "garment": garment, "strain_limit_iterations": n,
-                                  "frames": len(times), "median_ms": round(median, 3), "p99_ms": round(p99, 3),
+                print(json.dumps({"clip": clip, "garment": garment, args.param: n, "frames": len(times),
+                                  "median_ms": round(median, 3), "p99_ms": round(p99, 3),
                                   "worst_ms": round(float(times.max()), 3),
                                   "median_ratio": round(median / first, 3)}), flush=True)
-    base = summary[args.iterations[0]]
-    for n in args.iterations:
+    base = summary[values[0]]
+    for n in values:
         medians, p99s = zip(*summary[n])
-        print(json.dumps({"strain_limit_iterations": n, "runs": len(medians),
+        print(json.dumps({args.param: n, "runs": len(medians),
                           "mean_median_ms": round(statistics.mean(medians), 3),
                           "mean_p99_ms": round(statistics.mean(p99s), 3),
                           "median_ratio": round(statistics.mean(medians) / statistics.mean(m for m, _ in base), 3),
