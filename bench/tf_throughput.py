@@ -11,6 +11,7 @@ the measured windows, ms), marker arrays/s, the node's fps and status.
 
     .venv/bin/python bench/tf_throughput.py                    # the issue's configurations
     .venv/bin/python bench/tf_throughput.py --characters 1 --joints 150 --rate 1000 --seconds 10
+    .venv/bin/python bench/tf_throughput.py --node-param frame_retries:=0   # a node parameter changed
     TF_BENCH_DEBUG=1 ...   # also the node's log and every diagnostics window, on stderr
 """
 
@@ -106,7 +107,7 @@ def publish(characters: int, joints: int, rate_hz: float, seconds: float) -> Non
     rclpy.shutdown()
 
 
-def measure(characters: int, joints: int, rate_hz: float, seconds: float) -> dict:
+def measure(characters: int, joints: int, rate_hz: float, seconds: float, node_params: tuple[str, ...] = ()) -> dict:
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
     from rclpy.executors import SingleThreadedExecutor
@@ -117,7 +118,8 @@ def measure(characters: int, joints: int, rate_hz: float, seconds: float) -> dic
     env.setdefault("ROS_DOMAIN_ID", str(100 + os.getpid() % 100))  # off everyone's default domain
     os.environ.update({k: env[k] for k in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID")})
     node = subprocess.Popen([sys.executable, "-m", "garment_sim_ros.ros.node", "--ros-args", "-p",
-                             "frame_prefix:=c0/", "-p", "garments:=[one_piece]", "-p", "diagnostics_period:=1.0"],
+                             "frame_prefix:=c0/", "-p", "garments:=[one_piece]", "-p", "diagnostics_period:=1.0",
+                             *[arg for param in node_params for arg in ("-p", param)]],
                             cwd=REPO, env=env,
                             stdout=subprocess.DEVNULL,
                             stderr=None if os.environ.get("TF_BENCH_DEBUG") else subprocess.DEVNULL)
@@ -180,6 +182,8 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=8.0)
     parser.add_argument("--sweep", action="store_true",
                         help="1 x 150 joints from 1 kHz, doubling the rate until the node stops keeping up")
+    parser.add_argument("--node-param", action="append", default=[], metavar="NAME:=VALUE",
+                        help="a parameter of the node (repeatable), e.g. frame_retries:=0")
     args = parser.parse_args()
     if args.mode == "publish":
         publish(args.characters, args.joints, args.rate, args.seconds)
@@ -189,14 +193,14 @@ def main() -> None:
     if args.sweep:
         rate_hz = 1000.0
         while True:
-            result = measure(1, 150, rate_hz, args.seconds)
+            result = measure(1, 150, rate_hz, args.seconds, tuple(args.node_param))
             result["keeps_up"] = keeps_up(result)
             print(json.dumps(result), flush=True)
             if not result["keeps_up"] or rate_hz >= 16000:
                 return
             rate_hz *= 2.0
     for characters, joints, rate_hz in configs:
-        print(json.dumps(measure(characters, joints, rate_hz, args.seconds)), flush=True)
+        print(json.dumps(measure(characters, joints, rate_hz, args.seconds, tuple(args.node_param))), flush=True)
 
 
 def keeps_up(result: dict) -> bool:
