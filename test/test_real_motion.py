@@ -2,8 +2,10 @@
 ``garment-sim evaluate`` (``commands.evaluate.evaluate_run``), 1 s each at 60 fps, judged by the issue's
 targets (``quality.TARGETS``). The full sweep (every clip, garment, 1-3x, 60 and 30 fps) is ``make evaluate``.
 
-Asked here: (b) no limb bone through the cloth, (c) no trouser leg off its leg, (a) depth, (e) no guard
-firing. Stretch (d) is not met on real motion yet (README, "Real motion: measured quality") and not asserted.
+Asked here: (b) no limb bone through the cloth, (c) no trouser leg off its leg, (a) depth, (d) stretch, (e) no
+guard firing, on ordinary clips (on 2026-12-02 every full-protocol run of the seven ordinary clips met them with
+seed 0, 501 of 504 over three starts; the CC jump and the cartwheel do not yet: README, "Real motion: measured
+quality").
 """
 
 from __future__ import annotations
@@ -35,9 +37,10 @@ CASES = ([("xia_strutting_01_000", garment) for garment in GARMENT_NAMES]
 def test_garments_stay_on_real_clips_at_double_speed(clip, garment):
     row = evaluate_run(Run(str(DATA / f"{clip}.bvh"), garment, 2.0, 60.0, 1.0))
     assert row["frames"] == 60
-    failed = {letter: ok for letter, ok in row["targets"].items() if letter != "d" and ok is False}
-    assert failed == {}, {key: row[key] for key in ("bones_frames", "legs_off_frames", "deep_frames",
-                                                     "max_depth_mm", "guard_firings")}
+    failed = {letter: ok for letter, ok in row["targets"].items() if ok is False}
+    assert failed == {}, {key: row[key] for key in ("bones_frames", "legs_off_frames", "deep_frames", "max_depth_mm",
+                                                     "structural_stretch_p99", "structural_stretch_max",
+                                                     "shear_stretch_p99", "shear_stretch_max", "guard_firings")}
 
 
 def test_cloth_between_a_forearm_along_the_hip_and_the_pelvis_has_a_place_outside_both():
