@@ -31,7 +31,7 @@ import numpy as np
 from numba import njit
 
 from .cloth.kernels import spring_stretches
-from .cloth.model import SHEAR, STRUCTURAL
+from .cloth.model import stretch_figures, stretch_groups
 from .collision.crossing import segments_through_triangles
 from .collision.geometry import to_local
 from .transforms import quat_to_matrix
@@ -48,7 +48,6 @@ LIMB_BONES: tuple[tuple[str, str, str], ...] = (
     ("right_forearm", "right_lower_arm", "right_hand"),
     ("spine", "pelvis", "chest"),
 )
-PERCENTILE = 99.0  # the "p99" of the stretch figures
 
 
 # ----------------------------------------------------------------------------- kernels
@@ -172,9 +171,7 @@ class GarmentMeter:
         attached = np.zeros(model.num_points, dtype=bool)
         attached[model.attached] = True
         self._free_triangles = self._triangles[~attached[self._triangles].any(axis=1)]
-        kinds = model.spring_kinds
-        self._kinds = {name: np.flatnonzero(kinds == kind) for name, kind in (("structural", STRUCTURAL),
-                                                                               ("shear", SHEAR))}
+        self._kinds = stretch_groups(model.spring_kinds)
         self._springs = np.ascontiguousarray(model.springs)
         self._rest = np.ascontiguousarray(model.rest_lengths)
         self._stretch = np.zeros(model.num_correction_springs)  # structural and shear come first
@@ -200,12 +197,7 @@ class GarmentMeter:
 
     def stretch_figures(self, stretches: np.ndarray) -> dict[str, tuple[float, float]]:
         """``stretch``'s figures from the structural and shear springs' length / rest length (S_c,)."""
-        figures = {}
-        for name, index in self._kinds.items():
-            values = stretches[index]
-            figures[name] = ((float(np.percentile(values, PERCENTILE)), float(values.max())) if len(values)
-                             else (0.0, 0.0))
-        return figures
+        return stretch_figures(stretches, self._kinds)
 
     def measure(self, report, solver, world_positions, pose, volume_positions, volume_rotations) -> None:
         """Fill ``report``'s quality figures (see ``FrameReport``) for ``solver``'s garment after a

@@ -67,7 +67,7 @@ class FrameInput:
 
 @dataclass
 class FrameReport:
-    substeps: int = 0  # of the frame's last try
+    substeps: int = 0  # of the try kept (``GarmentSolver.advance``'s frame retries)
     retries: int = 0  # times the frame ran again with twice the substeps (``GarmentSolver.RETRY_STRETCH``)
     substep_s: float = 0.0
     simulated_s: float = 0.0

@@ -27,6 +27,7 @@ from .garments import GarmentMesh
 STRUCTURAL, SHEAR, BEND = 0, 1, 2
 SPRING_KIND_NAMES = ("structural", "shear", "bend")
 _STRAIGHT_COS = 0.8  # a bend spring continues an edge within ~37 degrees
+STRETCH_PERCENTILE = 99.0  # the "p99" of the stretch figures (``stretch_figures``)
 
 
 @dataclass(frozen=True)
@@ -220,3 +221,21 @@ def build_cloth_model(mesh: GarmentMesh, attachment_rest_poses: dict[str, tuple[
         tether_anchors=tether_anchors,
         tether_lengths=tether_lengths,
     )
+
+
+def stretch_groups(spring_kinds: np.ndarray) -> dict[str, np.ndarray]:
+    """``{"structural": indices, "shear": indices}`` of a model's springs (``ClothModel.spring_kinds``), which come
+    first, so the indices are into its correction springs too."""
+    return {name: np.flatnonzero(spring_kinds == kind) for name, kind in (("structural", STRUCTURAL), ("shear", SHEAR))}
+
+
+def stretch_figures(stretches: np.ndarray, groups: dict[str, np.ndarray]) -> dict[str, tuple[float, float]]:
+    """Issue 11's target (d) figures, ``{name: (p99, max)}`` of length / rest length per group of
+    ``stretch_groups`` (0, 0 for an empty group), from the springs' length / rest length ``stretches``: the
+    metric's (``quality``) and the frame retries' (``GarmentSolver._damage``)."""
+    figures = {}
+    for name, index in groups.items():
+        values = stretches[index]
+        figures[name] = ((float(np.percentile(values, STRETCH_PERCENTILE)), float(values.max())) if len(values)
+                         else (0.0, 0.0))
+    return figures

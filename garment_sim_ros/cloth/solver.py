@@ -68,7 +68,7 @@ from ..transforms import quat_conjugate, quat_multiply, transform_points, yaw_qu
 from . import fused, kernels
 from .frame import ClothState, FrameInput, FrameReport
 from .halves import ParallelLayout
-from .model import BEND, SHEAR, STRUCTURAL, ClothModel
+from .model import BEND, SHEAR, STRUCTURAL, ClothModel, stretch_figures, stretch_groups
 from .motion_constraints import SkinBinding, limit_distance
 
 _NO_ROTATIONS = np.zeros((0, 4))
@@ -212,8 +212,7 @@ class GarmentSolver:
         # (S_c,) length / rest length of the structural and shear springs (``model.springs``' first S_c)
         # after the last frame, as ``report.max_stretch`` and ``quality`` read them
         self.stretches = np.ones(self._correct_count)
-        kinds = model.spring_kinds[:self._correct_count]
-        self._stretch_groups = (np.flatnonzero(kinds == STRUCTURAL), np.flatnonzero(kinds == SHEAR))
+        self._stretch_groups = stretch_groups(model.spring_kinds)
         self._whole = True  # the last frame ended undamaged (``_damage``): the next may be retried
         self._edges = np.ascontiguousarray(model.springs[model.spring_kinds == STRUCTURAL])
         self._edge_rest = np.ascontiguousarray(model.rest_lengths[model.spring_kinds == STRUCTURAL])
@@ -434,8 +433,8 @@ class GarmentSolver:
     # (``_damage``'s order). Only from a whole start: where the damage lasts (the CC jump's crouch, its trousers'
     # seat short of cloth for 19 frames) retrying every frame cost those runs 1.7x their time, and passed no more
     # runs of the full protocol (200 of 216 either way, docs/real_motion.md).
-    RETRY_STRETCH = 1.5
-    RETRY_P99 = 1.05
+    RETRY_STRETCH = 1.5  # ``quality.TARGETS.stretch_max`` (the core does not import ``quality``)
+    RETRY_P99 = 1.05  # ``quality.TARGETS.stretch_p99``
 
     def _damage(self, report: FrameReport) -> tuple[int, bool, float, float]:
         """How damaged the garment is now, in the order the retries compare tries: the volumes' bones through a
@@ -447,9 +446,9 @@ class GarmentSolver:
                 report.max_stretch)
 
     def _worst_p99(self) -> float:
-        """The larger of the structural and the shear springs' 99th percentile of length / rest length now."""
-        return max(float(np.percentile(self.stretches[index], 99.0)) if len(index) else 0.0
-                   for index in self._stretch_groups)
+        """The larger of the structural and the shear springs' 99th percentile of length / rest length now (the
+        metric's, ``model.stretch_figures``)."""
+        return max(p99 for p99, _ in stretch_figures(self.stretches, self._stretch_groups).values())
 
     def _substeps(self, frame: FrameInput, count: int, h: float, dt: float, poses0, poses1,
                   report: FrameReport) -> None:
