@@ -92,11 +92,11 @@ PARAMETERS: tuple[Param, ...] = (
     Param("max_limb_substeps", 24, "1", 1, 200,
           "at most this many substeps per frame from the limbs' speed (limb_step_ratio): compute, never lag, so "
           "apart from max_substeps, which caps the substeps of a long frame"),
-    Param("frame_retries", 3, "1", 0, 8,
+    Param("frame_retries", 5, "1", 0, 8,
           "a frame that starts with the garment whole and ends with a limb bone through a triangle, a structural or "
-          "shear spring past 1.5 x its rest length or their p99 past 1.05 runs again from its start with twice the "
-          "substeps, at most this many times (a frame then costs up to 2^(n+1) - 1 times one); the least damaged try "
-          "is kept; 0: off"),
+          "shear spring past 1.5 x its rest length or their p99 past 1.05, and any frame with a spring past the "
+          "guard's 10 x, runs again from its start with twice the substeps, at most this many times (a frame then "
+          "costs up to 2^(n+1) - 1 times one); the least damaged try is kept, one that ran away last; 0: off"),
     Param("correction_iterations", 4, "1", 0, 200,
           "Provot length-correction iterations per substep (contacts are handled after the first)"),
     Param("limit_ratio", 0.01, "1", 0.0, 1.0,

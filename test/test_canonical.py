@@ -382,9 +382,10 @@ def test_a_guard_recovery_dresses_through_the_canonical_pose_and_the_next_frame_
     solver = character.solvers[0]
     # a runaway: the free points 2 m ahead of the waistband and behind it in turn. Moved all the same way, the
     # frame's projections pull them back to within 9-10 rest lengths (``RUNAWAY_STRETCH`` is 10): the guard fired
-    # on 2 m but not on 1 m, and not on 1-10 m with the trousers' seat ease (9.1-9.5).
+    # on 2 m but not on 1 m, and not on 1-10 m with the trousers' seat ease (9.1-9.5); with the crotch's width ease
+    # on 3 m (and 4 m) but not on 2 m (8.85) or 6 m (8.98).
     free = np.flatnonzero(solver.constants.inv_mass > 0.0)
-    solver.state.positions[free, 0] += np.where(free % 2 == 0, 2.0, -2.0)
+    solver.state.positions[free, 0] += np.where(free % 2 == 0, 3.0, -3.0)
     t += FRAME
     reports = character.step(source.pose(t), source.motion(t), t)
     assert reports[0].recovery == "refitted"

@@ -382,6 +382,29 @@ def test_trousers_crotch_seam_is_fine_and_the_leg_rings_step_down_below_it():
     assert counts == [len(ring) for ring in right]
 
 
+def test_trousers_crotch_ring_is_wider_side_to_side_but_the_seam_no_longer(monkeypatch):
+    """The ring the two legs' tops share is wider side to side by ``_CROTCH_WIDTH_EASE_PER_THIGH`` thigh radii
+    than cut without it (room for a thigh flexed to 90 deg or spread in a straddle; issue 11 (d)); front to back
+    it keeps the hips' ease, so the crotch seam between its back and front centres is no longer."""
+    from garment_sim_ros.body.measurements import STANDARD_BODY
+    from garment_sim_ros.cloth import garments
+
+    def crotch_ring_and_seam():
+        mesh = build_garment("pants")
+        left, right = mesh.rings["left_leg"], mesh.rings["right_leg"]
+        ring = mesh.vertices[np.union1d(left[0], right[0])]
+        shared = np.flatnonzero(np.isin(left[0], right[0]))
+        seam = mesh.vertices[left[0][[*shared[1:], 0]]]  # back centre -> seam -> front centre
+        return np.ptp(ring[:, 0]), np.ptp(ring[:, 1]), np.linalg.norm(np.diff(seam, axis=0), axis=1).sum()
+
+    ease, (length, width, seam) = garments._CROTCH_WIDTH_EASE_PER_THIGH, crotch_ring_and_seam()
+    monkeypatch.setattr(garments, "_CROTCH_WIDTH_EASE_PER_THIGH", 0.0)
+    length0, width0, seam0 = crotch_ring_and_seam()
+    assert ease > 0.0
+    assert width - width0 == pytest.approx(2 * ease * STANDARD_BODY.thigh_radius, rel=1e-6)
+    assert (length, seam) == pytest.approx((length0, seam0), rel=1e-9)
+
+
 def test_long_skirt_opens_a_walking_vent_where_it_cannot_go_round_the_stride():
     """Below the ring that still goes round both legs in the cut's stride (``garments._STRIDE``), the long
     skirt is open at the back: each opened ring is a chain from the back centre round to a copy of it, the

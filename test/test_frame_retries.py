@@ -20,8 +20,8 @@ def _play_comparing(clip: str, garment: str, speed: float, fps: float):
     """Play ``clip`` as ``evaluate`` does with the defaults; every frame the solver ran again is also run once
     from the same state (``frame_retries`` 0), then the retried result put back; each retried frame keeps the
     least damaged of its tries (asserted as it plays). Returns, per retried frame,
-    (the kept try's damage, the single try's, substeps kept, substeps planned), and per frame (retries, whether
-    it ended undamaged)."""
+    (the kept try's damage, the first try's, substeps kept, substeps planned: the single run's), and per frame
+    (retries, whether it ended undamaged, whether its first try ran away)."""
     params = preset("si")
     source = bvh_source(str(DATA / f"{clip}.bvh"), loop=False, speed=speed, params=params)
     character = make_character(source.rest_pose, source.joint_map, [garment], params, motion=source.fit_poses())
@@ -43,10 +43,12 @@ def _play_comparing(clip: str, garment: str, speed: float, fps: float):
             solver.state = before.copy()
             solver.set_params(once)
             single = advance(frame)
-            compared.append((kept, damage(single), report.substeps, single.substeps))
+            # the frame's first try is the frame run once (a re-run from a copy of the state is not always that to
+            # the bit: on the cartwheel one frame in five differed, 2026-12-02; state outside ``ClothState``)
+            compared.append((kept, tries[0], report.substeps, single.substeps))
             solver.set_params(params)
             solver.state = kept_state
-        frames_seen.append((report.retries, solver._whole))
+        frames_seen.append((report.retries, solver._whole, bool(tries) and tries[0][0]))
         return report
 
     solver.advance, solver._damage = advance_and_compare, recorded_damage
@@ -59,22 +61,26 @@ def _play_comparing(clip: str, garment: str, speed: float, fps: float):
 @pytest.mark.parametrize("clip, garment, speed, fps, mends", [
     ("cc_cmu_02_04_jump_balance", "short_skirt", 2.0, 30.0, True),  # a 6.87x spring at 2x 30 fps, run once
     ("cmu_131_01_walk_mjstyle", "one_piece", 2.0, 30.0, True),  # 1.72x
-    ("cc_cmu_02_04_jump_balance", "pants", 1.0, 60.0, False),  # the crouch: frames no try mends
+    # the forearm sweeping inside the torso at 2.50 s: frames no try mends (the CC jump's crouch in trousers was
+    # this case until the crotch's width ease, 2026-12-02)
+    ("cc_cmu_05_06_dance_cartwheel_pirouette", "short_skirt", 1.0, 60.0, False),
 ])
 def test_a_retried_frame_keeps_its_best_try(clip, garment, speed, fps, mends):
     compared, frames_seen = _play_comparing(clip, garment, speed, fps)
     assert compared, "no frame was run again"
-    # only a frame that starts undamaged runs again: damage that lasts is not retried frame after frame
-    assert all(retries == 0 for (retries, _), (_, whole) in zip(frames_seen[1:], frames_seen) if not whole)
+    # only a frame that starts undamaged runs again (or one the guard would re-fit): damage that lasts is not
+    # retried frame after frame
+    assert all(retries == 0 for (retries, _, ran_away), (_, whole, _) in zip(frames_seen[1:], frames_seen)
+               if not whole and not ran_away)
     for kept, single, substeps, planned in compared:
         assert kept <= single  # the single try is one of the tries: the kept one is never worse
         assert substeps in [planned * 2 ** k for k in range(DEFAULT_PARAMS.frame_retries + 1)]
     if mends:  # a frame torn when run once and whole with more substeps, no bone through it either way
-        assert any(single[1] and not kept[1] and kept[0] == 0 for kept, single, _, _ in compared), compared
+        assert any(single[2] and not kept[2] and kept[1] == 0 for kept, single, _, _ in compared), compared
     else:  # frames no try mends keep their least damaged try (asserted in ``_play_comparing``), and the frames
         # after them run once
-        assert any(kept[:3] != (0, False, 0.0) for kept, _, _, _ in compared), compared
-        assert sum(not whole for _, whole in frames_seen) > len(compared)
+        assert any(kept[:4] != (False, 0, False, 0.0) for kept, _, _, _ in compared), compared
+        assert sum(not whole for _, whole, _ in frames_seen) > len(compared)
 
 
 def test_frames_run_once_without_retries():
@@ -88,3 +94,30 @@ def test_frames_run_once_without_retries():
     assert all(r.retries == 0 for r in reports)
     assert max(r.max_stretch for r in reports) > 1.5  # it tears here, run once
     assert preset("memo").frame_retries == 0  # the memo's experiments run each frame once
+
+
+def test_a_frame_the_guard_would_re_fit_keeps_a_try_that_did_not_run_away():
+    """The cartwheel's short skirt at 1x 30 fps, 2.5 s: run once, a spring ends past ``RUNAWAY_STRETCH`` (10 rest
+    lengths) and the guard re-fits the garment; the retries find a try that did not run away, which is kept
+    whatever else it has (a bone through it rather than a re-fit), and the guard never fires."""
+    params = preset("si")
+    source = bvh_source(str(DATA / "cc_cmu_05_06_dance_cartwheel_pirouette.bvh"), loop=False, params=params)
+    character = make_character(source.rest_pose, source.joint_map, ["short_skirt"], params, motion=source.fit_poses())
+    solver = character.solvers[0]
+    damage, tries, frames_tried = solver._damage, [], []
+
+    def recorded_damage(report):
+        tries.append(damage(report))
+        return tries[-1]
+
+    solver._damage = recorded_damage
+    frames = int(source.duration * 30.0)
+    for _, _, reports in simulate_frames(source, character, np.arange(frames + 1) / 30.0):
+        if reports is not None:
+            frames_tried.append((list(tries), damage(reports[0]), reports[0].recovery))
+        tries.clear()
+    ran_away = [(tried, kept) for tried, kept, _ in frames_tried if any(t[0] for t in tried)]
+    assert ran_away, "no try ran away: the guard's case is not played"
+    assert all(not kept[0] for tried, kept in ran_away if not all(t[0] for t in tried))
+    assert all(len(tried) > 1 for tried, _ in ran_away)  # retried, whatever the frame's start
+    assert not any(recovery for _, _, recovery in frames_tried)

@@ -41,9 +41,10 @@ the longest before, the substep keeps the state from before the limiting, but fo
 there that the limiting's handling took out (``kernels.undo_limiting``).
 
 Frame retries (``frame_retries``, beyond the memo): a frame that starts with the garment whole and ends with a
-bone through it or a spring torn past 1.5x (or the springs' p99 past 1.05) runs again from its start with twice
-the substeps, up to ``frame_retries`` times, and the least damaged try is kept (``RETRY_STRETCH``); an adaptive
-step that pays only where the cloth went wrong, as production cloth solvers retry a failed step with smaller ones.
+bone through it or a spring torn past 1.5x (or the springs' p99 past 1.05), and any frame with a spring past the
+guard's 10x, runs again from its start with twice the substeps, up to ``frame_retries`` times, and the least
+damaged try is kept (``RETRY_STRETCH``); an adaptive step that pays only where the cloth went wrong, as production
+cloth solvers retry a failed step with smaller ones.
 
 Sliding, opt-in (``strain_limit_slide``): the strain limiting's contact handling is static, a point the
 correction pulled into a volume going out across the nearest surface, not back to the side it came from at the
@@ -72,7 +73,8 @@ from .model import BEND, SHEAR, STRUCTURAL, ClothModel, stretch_figures, stretch
 from .motion_constraints import SkinBinding, limit_distance
 
 _NO_ROTATIONS = np.zeros((0, 4))
-_WHOLE = (0, False, 0.0)  # ``GarmentSolver._damage``'s lead when no bone is through, none torn, the p99 within
+# ``GarmentSolver._damage``'s lead when none ran away, no bone is through, none torn, the p99 within its target
+_WHOLE = (False, 0, False, 0.0)
 
 
 @dataclass(frozen=True)
@@ -409,7 +411,9 @@ class GarmentSolver:
             damage = self._damage(report) if checked else None
             if best is None or damage < best[0]:
                 best = (damage, self.state, count, h, (report.static_hits, report.dynamic_hits, report.pressed_depth_m))
-            if retries == 0 or damage[:3] == _WHOLE:
+            if report.retries == 0 and checked and damage[0]:
+                retries = params.frame_retries  # the guard would fire: run again whatever the start
+            if retries == 0 or damage[:4] == _WHOLE:
                 break
             retries -= 1  # again from the frame's start, substeps half as long (see RETRY_STRETCH)
             self.state = last_good.copy()
@@ -419,7 +423,7 @@ class GarmentSolver:
             self.state = best[1]
             self._measure_stretch(report)
         if checked:
-            self._whole = best[0][:3] == _WHOLE
+            self._whole = best[0][:4] == _WHOLE
         report.substeps, report.substep_s = best[2], best[3]
         report.static_hits, report.dynamic_hits, report.pressed_depth_m = best[4]
         self._guard(report, last_good, frame)
@@ -432,18 +436,22 @@ class GarmentSolver:
     # its start with twice the substeps, up to ``frame_retries`` times, and the least damaged try is kept
     # (``_damage``'s order). Only from a whole start: where the damage lasts (the CC jump's crouch, its trousers'
     # seat short of cloth for 19 frames) retrying every frame cost those runs 1.7x their time, and passed no more
-    # runs of the full protocol (200 of 216 either way, docs/real_motion.md).
+    # runs of the full protocol (200 of 216 either way, docs/real_motion.md). But a try the guard would re-fit (a
+    # spring past RUNAWAY_STRETCH) is retried whatever the start, and ranks below every try that did not run away:
+    # the cartwheel's skirts at 1x 30 fps kept a 0-bone try at 11.7x over a 1-bone one at 4.6x, and the guard
+    # fired; with five retries a try at 16x and 32x the substeps mends both (2026-12-02, second session).
     RETRY_STRETCH = 1.5  # ``quality.TARGETS.stretch_max`` (the core does not import ``quality``)
     RETRY_P99 = 1.05  # ``quality.TARGETS.stretch_p99``
 
-    def _damage(self, report: FrameReport) -> tuple[int, bool, float, float]:
-        """How damaged the garment is now, in the order the retries compare tries: the volumes' bones through a
-        triangle (``Collider.bones_through``), torn (a spring past ``RETRY_STRETCH``), how far the worst 99th
-        percentile is past ``RETRY_P99``, the longest spring (length / rest length); ``_WHOLE`` leads it when
-        nothing is damaged. ``report.max_stretch`` is the garment's now (``_measure_stretch``)."""
+    def _damage(self, report: FrameReport) -> tuple[bool, int, bool, float, float]:
+        """How damaged the garment is now, in the order the retries compare tries: run away (a spring past
+        ``RUNAWAY_STRETCH``, which the guard would re-fit), the volumes' bones through a triangle
+        (``Collider.bones_through``), torn (a spring past ``RETRY_STRETCH``), how far the worst 99th percentile is
+        past ``RETRY_P99``, the longest spring (length / rest length); ``_WHOLE`` leads it when nothing is damaged.
+        ``report.max_stretch`` is the garment's now (``_measure_stretch``)."""
         crossed = self.collider.bones_through(self.state.positions, self._triangles)
-        return (crossed, report.max_stretch > self.RETRY_STRETCH, max(self._worst_p99() - self.RETRY_P99, 0.0),
-                report.max_stretch)
+        return (report.max_stretch > self.RUNAWAY_STRETCH, crossed, report.max_stretch > self.RETRY_STRETCH,
+                max(self._worst_p99() - self.RETRY_P99, 0.0), report.max_stretch)
 
     def _worst_p99(self) -> float:
         """The larger of the structural and the shear springs' 99th percentile of length / rest length now (the
