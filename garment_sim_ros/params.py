@@ -97,6 +97,10 @@ PARAMETERS: tuple[Param, ...] = (
           "shear spring past 1.5 x its rest length or their p99 past 1.05, and any frame with a spring past the "
           "guard's 10 x, runs again from its start with twice the substeps, at most this many times (a frame then "
           "costs up to 2^(n+1) - 1 times one); the least damaged try is kept, one that ran away last; 0: off"),
+    Param("retry_budget", 0.0, "s", 0.0, 10.0,
+          "wall-clock bound on a frame's tries (frame_retries): no further try starts once the tries so far and the "
+          "next (about twice the last) would pass it, the frame then reported (FrameReport.retries_cut); for a node "
+          "that must not stall a second on an acrobatic clip, e.g. 0.1; 0: no bound (evaluate's figures are of that)"),
     Param("correction_iterations", 4, "1", 0, 200,
           "Provot length-correction iterations per substep (contacts are handled after the first)"),
     Param("limit_ratio", 0.01, "1", 0.0, 1.0,
@@ -228,6 +232,7 @@ class SolverParams:
     limb_step_ratio: float
     max_limb_substeps: int
     frame_retries: int
+    retry_budget: float
     correction_iterations: int
     limit_ratio: float
     strain_limit_iterations: int

@@ -121,3 +121,24 @@ def test_a_frame_the_guard_would_re_fit_keeps_a_try_that_did_not_run_away():
     assert all(not kept[0] for tried, kept in ran_away if not all(t[0] for t in tried))
     assert all(len(tried) > 1 for tried, _ in ran_away)  # retried, whatever the frame's start
     assert not any(recovery for _, _, recovery in frames_tried)
+
+
+def test_a_retry_budget_stops_the_tries_and_says_so():
+    """``retry_budget`` (s of wall clock for a frame's tries): a budget no try fits in (1 ns) runs every frame once
+    and reports the frames it cut (``FrameReport.retries_cut``), the first of them the first frame the unbounded
+    run retries; unbounded (0), frames are retried and none is cut."""
+    runs = {}
+    for budget in (1e-9, 0.0):
+        params = preset("si").replace(retry_budget=budget)
+        source = bvh_source(str(DATA / "cc_cmu_02_04_jump_balance.bvh"), loop=False, speed=2.0, params=params)
+        character = make_character(source.rest_pose, source.joint_map, ["short_skirt"], params,
+                                   motion=source.fit_poses())
+        frames = int(source.duration * 30.0)
+        steps = simulate_frames(source, character, np.arange(frames + 1) / 30.0)
+        runs[budget] = [r[0] for _, _, r in steps if r is not None]
+    cut, unbounded = runs[1e-9], runs[0.0]
+    assert all(r.retries == 0 for r in cut) and any(r.retries_cut for r in cut)
+    assert any(r.retries > 0 for r in unbounded) and not any(r.retries_cut for r in unbounded)
+    first = next(k for k, r in enumerate(unbounded) if r.retries > 0)
+    assert next(k for k, r in enumerate(cut) if r.retries_cut) == first
+    assert DEFAULT_PARAMS.retry_budget == 0.0  # evaluate's figures are unbounded

@@ -405,7 +405,9 @@ class GarmentSolver:
         checked = params.frame_retries > 0 and collider is not None
         retries = params.frame_retries if checked and self._whole else 0
         best = None  # (damage, state, substeps, substep length, the collision's counters) of the best try
+        started = time.perf_counter()
         while True:
+            try_started = time.perf_counter()
             self._substeps(frame, count, h, dt, poses0, poses1, report)
             self._measure_stretch(report)
             damage = self._damage(report) if checked else None
@@ -414,6 +416,10 @@ class GarmentSolver:
             if report.retries == 0 and checked and damage[0]:
                 retries = params.frame_retries  # the guard would fire: run again whatever the start
             if retries == 0 or damage[:4] == _WHOLE:
+                break
+            now = time.perf_counter()  # the next try has twice the substeps: about twice this one's time
+            if params.retry_budget > 0.0 and now - started + 2.0 * (now - try_started) > params.retry_budget:
+                report.retries_cut = True
                 break
             retries -= 1  # again from the frame's start, substeps half as long (see RETRY_STRETCH)
             self.state = last_good.copy()
