@@ -43,8 +43,9 @@ def _play_comparing(clip: str, garment: str, speed: float, fps: float):
             solver.state = before.copy()
             solver.set_params(once)
             single = advance(frame)
-            # the frame's first try is the frame run once (a re-run from a copy of the state is not always that to
-            # the bit: on the cartwheel one frame in five differed, 2026-12-02; state outside ``ClothState``)
+            # the frame's first try is the frame run once (the run after switching to ``frame_retries`` 0 is not always
+            # that to the bit: on the cartwheel one frame in five differed, 2026-12-02; a re-run with the same
+            # parameters is, for every retried frame up to it)
             compared.append((kept, tries[0], report.substeps, single.substeps))
             solver.set_params(params)
             solver.state = kept_state
