@@ -31,7 +31,7 @@ import numpy as np
 from numba import njit
 
 from .cloth.kernels import spring_stretches
-from .cloth.model import stretch_figures, stretch_groups
+from .cloth.model import STRETCH_MAX_TARGET, STRETCH_P99_TARGET, stretch_figures, stretch_groups
 from .collision.crossing import segments_through_triangles
 from .collision.geometry import to_local
 from .transforms import quat_to_matrix
@@ -256,8 +256,8 @@ class Targets:
     depth_tolerance_m: float = 0.001
     depth_frame_share: float = 0.001
     depth_never_m: float = 0.005
-    stretch_p99: float = 1.05
-    stretch_max: float = 1.5
+    stretch_p99: float = STRETCH_P99_TARGET
+    stretch_max: float = STRETCH_MAX_TARGET
     fast_speed: float = 3.0
 
     def judge(self, row: dict) -> dict[str, bool | None]:

@@ -69,7 +69,16 @@ from ..transforms import quat_conjugate, quat_multiply, transform_points, yaw_qu
 from . import fused, kernels
 from .frame import ClothState, FrameInput, FrameReport
 from .halves import ParallelLayout
-from .model import BEND, SHEAR, STRUCTURAL, ClothModel, stretch_figures, stretch_groups
+from .model import (
+    BEND,
+    SHEAR,
+    STRETCH_MAX_TARGET,
+    STRETCH_P99_TARGET,
+    STRUCTURAL,
+    ClothModel,
+    stretch_figures,
+    stretch_groups,
+)
 from .motion_constraints import SkinBinding, limit_distance
 
 _NO_ROTATIONS = np.zeros((0, 4))
@@ -446,8 +455,8 @@ class GarmentSolver:
     # spring past RUNAWAY_STRETCH) is retried whatever the start, and ranks below every try that did not run away:
     # the cartwheel's skirts at 1x 30 fps kept a 0-bone try at 11.7x over a 1-bone one at 4.6x, and the guard
     # fired; with five retries a try at 16x and 32x the substeps mends both (2026-12-02, second session).
-    RETRY_STRETCH = 1.5  # ``quality.TARGETS.stretch_max`` (the core does not import ``quality``)
-    RETRY_P99 = 1.05  # ``quality.TARGETS.stretch_p99``
+    RETRY_STRETCH = STRETCH_MAX_TARGET
+    RETRY_P99 = STRETCH_P99_TARGET
 
     def _damage(self, report: FrameReport) -> tuple[bool, int, bool, float, float]:
         """How damaged the garment is now, in the order the retries compare tries: run away (a spring past
@@ -601,7 +610,7 @@ class GarmentSolver:
     # a point below the waistband thrown 12 rest lengths off, then the guard). The target's maximum (issue 11).
     # A point inside a volume before the limiting that its handling took out keeps that (CC cartwheel, short skirt,
     # 2x 60 fps: a point 1.33 mm in the torso, back in with an undo for a spring 1.92 -> 1.95 long).
-    STRAIN_LIMIT_UNDONE = 1.5
+    STRAIN_LIMIT_UNDONE = STRETCH_MAX_TARGET
 
     # A structural or shear spring this many times its rest length is an explosion, not a soft fabric
     # (soft springs without length correction reach about 3 under strong root accelerations).

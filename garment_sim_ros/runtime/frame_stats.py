@@ -4,8 +4,8 @@ The node records every tick (its compute time) and every simulated frame (the ga
 ``FrameReport``s, publish time, penetration); ``window()`` returns the figures since the last
 call and starts a new window. Stage times are per frame, summed over the garments (Table 1's
 columns: integration, length correction, collision handling, publishing). ``recoveries`` counts the
-solver guard's events (a step restored or re-fitted, ``FrameReport.recovery``) and the frames' retries
-(``FrameReport.retries``, ``frame_retries``; ``retries_cut``, frames whose tries ``retry_budget`` stopped)
+solver guard's events (a step restored or re-fitted, ``FrameReport.recovery``), the tries frames ran again
+(``FrameReport.retries``, ``frame_retries``) and the frames whose tries ``retry_budget`` stopped (``retries_cut``)
 since the start.
 The garments' quality figures (``garment_sim_ros.quality``: limb bones through the cloth, trouser
 legs off, stretch p99 and max) and the penetration are the window's worst measured frame (the node
@@ -88,7 +88,7 @@ class FrameStats:
         self.recoveries.update(r.recovery for r in reports if r.recovery)
         self.recoveries.update(catch_up_recoveries)
         self.recoveries.update(["carried"] * sum(r.carried for r in reports))  # garment frames carried after one
-        self.recoveries.update(["retried"] * sum(r.retries for r in reports))  # frames run again (``frame_retries``)
+        self.recoveries.update(["retried"] * sum(r.retries for r in reports))  # tries run again (``frame_retries``)
         self.recoveries.update(["retries_cut"] * sum(r.retries_cut for r in reports))  # stopped by ``retry_budget``
         self._substeps += max(r.substeps for r in reports)
         self._stages["integration"] += sum(r.integration_s for r in reports)
