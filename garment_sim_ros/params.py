@@ -94,9 +94,16 @@ PARAMETERS: tuple[Param, ...] = (
           "apart from max_substeps, which caps the substeps of a long frame"),
     Param("frame_retries", 5, "1", 0, 8,
           "a frame that starts with the garment whole and ends with a limb bone through a triangle, a structural or "
-          "shear spring past 1.5 x its rest length or their p99 past 1.05, and any frame with a spring past the "
-          "guard's 10 x, runs again from its start with twice the substeps, at most this many times (a frame then "
+          "shear spring past 1.5 x its rest length or their p99 past 1.05, one that ends more damaged than it "
+          "started, and any frame with a spring past the guard's 10 x, runs again from its start with twice the "
+          "substeps, at most this many times (a frame then "
           "costs up to 2^(n+1) - 1 times one); the least damaged try is kept, one that ran away last; 0: off"),
+    Param("replay_frames", 2, "1", 0, 8,
+          "a frame its retries (frame_retries) leave damaged, having started whole or ended worse than it started, "
+          "runs again from the start of the replay_frames frames before it, those and it at 4, 8, then 16 x their "
+          "planned substeps, and the least damaged end is kept: a tear whose cause lies a frame or two back (cloth "
+          "caught under a forearm) that no retry of its own frame mends; the frames already shown stay as they "
+          "were; a replay costs up to 28 (n + 1) frames; 0: off"),
     Param("retry_budget", 0.0, "s", 0.0, 10.0,
           "wall-clock bound on a frame's tries (frame_retries): no further try starts once the tries so far and the "
           "next (about twice the last) would pass it, the frame then reported (FrameReport.retries_cut); for a node "
@@ -232,6 +239,7 @@ class SolverParams:
     limb_step_ratio: float
     max_limb_substeps: int
     frame_retries: int
+    replay_frames: int
     retry_budget: float
     correction_iterations: int
     limit_ratio: float

@@ -12,7 +12,8 @@ one process (two characters, a test beside a node) write separate recordings. En
 - ``world/body/skeleton``: ``LineStrips3D``, one two-point strip per bone;
 - ``frame/<figure>``: ``Scalars``: ``fps`` (simulated frames per wall second), ``lag_ms`` (the
   garments behind the skeleton), ``substeps`` (of the kept try), ``retries`` (the frame run again with twice the
-  substeps, ``frame_retries``), ``penetration_mm`` (deepest garment point in a volume;
+  substeps, ``frame_retries``), ``replays`` (the frame run again with the frames before it, ``replay_frames``),
+  ``penetration_mm`` (deepest garment point in a volume;
   on the frames the quality meters measured, ``FrameResult.measured``: the node's ``quality_rate_hz``);
 - ``timings/<stage>``: ``Scalars``, milliseconds;
 - ``quality/<garment>/<figure>``: ``Scalars``, how well each garment stays on (``quality.report_scalars``:
@@ -249,6 +250,7 @@ class RerunLogger:
             frame["lag_ms"] = 1e3 * max(r.lag_s for r in reports)
             frame["substeps"] = float(max(r.substeps for r in reports))
             frame["retries"] = float(max(r.retries for r in reports))
+            frame["replays"] = float(max(r.replays for r in reports))
             timings = {"integration": sum(r.integration_s for r in reports),
                        "correction": sum(r.correction_s for r in reports),
                        "collision": sum(r.collision_s for r in reports)}
@@ -291,8 +293,9 @@ def _blueprint():
                 row_shares=[4, 1],
             ),
             rrb.Vertical(
-                rrb.TimeSeriesView(origin="frame", contents=["/frame/fps", "/frame/substeps", "/frame/retries"],
-                                   name="frames per second, substeps and retries per frame"),
+                rrb.TimeSeriesView(origin="frame", contents=["/frame/fps", "/frame/substeps", "/frame/retries",
+                                                             "/frame/replays"],
+                                   name="frames per second, substeps, retries and replays per frame"),
                 rrb.TimeSeriesView(origin="frame", contents=["/frame/lag_ms", "/frame/penetration_mm"],
                                    name="garment lag [ms], penetration [mm]"),
                 rrb.TimeSeriesView(origin="quality", name="garment quality"),

@@ -70,6 +70,7 @@ class FrameReport:
     substeps: int = 0  # of the try kept (``GarmentSolver.advance``'s frame retries)
     retries: int = 0  # times the frame ran again with twice the substeps (``GarmentSolver.RETRY_STRETCH``)
     retries_cut: bool = False  # a further try was due but ``retry_budget`` (s) would have been passed
+    replays: int = 0  # times this frame and those before it ran again with more substeps (``replay_frames``)
     substep_s: float = 0.0
     simulated_s: float = 0.0
     lag_s: float = 0.0

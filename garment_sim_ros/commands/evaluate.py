@@ -152,12 +152,13 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
     ``structural_stretch_p99`` / ``shear_stretch_p99`` (the worst frame's 99th percentile of length /
     rest length) and ``..._max`` (the longest spring); ``guard_firings`` (frames) and ``carried_frames`` (frames
     a garment was carried rigidly after a runaway, ``DressedCharacter._recover``), ``retried_frames`` (frames run
-    again with more substeps, ``frame_retries``; not a target: what the figures cost);
+    again with more substeps, ``frame_retries``) and ``replayed_frames`` (frames whose retries left them damaged
+    run again with the frames before them, ``replay_frames``); not targets: what the figures cost;
     ``joint_glitches`` and ``joint_glitches_text``, the clip's joint glitches replaced on load (``body.glitches``);
     ``targets`` (``quality.Targets.judge``), ``passed`` and ``wall_s``. An outfit's frame counts when any
     of its garments fails it; it adds ``layer_crossing_frames`` (frames with an outer garment's edge through
     an inner garment's triangle), ``layer_crossings_max`` (most such edges at once) and ``layers``: per
-    garment, inner first, its own figures (the keys above from ``bones_frames`` to ``retried_frames``).
+    garment, inner first, its own figures (the keys above from ``bones_frames`` to ``replayed_frames``).
     ``after_dressing(character)`` is called once the garments are on, after the nudge (a test moves the cloth
     there)."""
     from ..body.sources import bvh_source
@@ -179,6 +180,7 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
     legs_off, guard = np.zeros((frames, worn), dtype=np.int64), np.zeros((frames, worn), dtype=bool)
     carried = np.zeros((frames, worn), dtype=bool)
     retried = np.zeros((frames, worn), dtype=bool)  # frames run again with more substeps (``frame_retries``)
+    replayed = np.zeros((frames, worn), dtype=bool)  # frames run again with those before them (``replay_frames``)
     crossings = np.zeros((frames, worn), dtype=np.int64)
     stretch = np.zeros((frames, worn, 4))  # structural p99, max, shear p99, max
     pressed = np.zeros((frames, worn))  # m, the deepest overlap of two volumes pressed onto a contact plane
@@ -196,7 +198,7 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
                                                                     report.legs_off)
             guard[k - 1, g], crossings[k - 1, g] = bool(report.recovery), report.layer_crossings
             carried[k - 1, g] = report.carried
-            retried[k - 1, g] = report.retries > 0
+            retried[k - 1, g], replayed[k - 1, g] = report.retries > 0, report.replays > 0
             pressed[k - 1, g] = report.pressed_depth_m
             surface[k - 1, g] = report.surface_depth_m
             stretch[k - 1, g] = (report.structural_stretch_p99, report.structural_stretch_max,
@@ -220,6 +222,7 @@ def evaluate_run(run: Run, after_dressing: Callable | None = None) -> dict:
             "guard_firings": int(np.count_nonzero(np.any(guard[:, garments], axis=1))),
             "carried_frames": int(np.count_nonzero(np.any(carried[:, garments], axis=1))),
             "retried_frames": int(np.count_nonzero(np.any(retried[:, garments], axis=1))),
+            "replayed_frames": int(np.count_nonzero(np.any(replayed[:, garments], axis=1))),
         }
 
     row = {"clip": Path(run.clip).stem, "garment": "+".join(character.garment_names), "speed": run.speed,

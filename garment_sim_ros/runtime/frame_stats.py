@@ -5,7 +5,8 @@ The node records every tick (its compute time) and every simulated frame (the ga
 call and starts a new window. Stage times are per frame, summed over the garments (Table 1's
 columns: integration, length correction, collision handling, publishing). ``recoveries`` counts the
 solver guard's events (a step restored or re-fitted, ``FrameReport.recovery``), the tries frames ran again
-(``FrameReport.retries``, ``frame_retries``) and the frames whose tries ``retry_budget`` stopped (``retries_cut``)
+(``FrameReport.retries``, ``frame_retries``), the replays of frames with those before them (``replays``,
+``replay_frames``) and the frames whose tries ``retry_budget`` stopped (``retries_cut``)
 since the start.
 The garments' quality figures (``garment_sim_ros.quality``: limb bones through the cloth, trouser
 legs off, stretch p99 and max) and the penetration are the window's worst measured frame (the node
@@ -89,6 +90,7 @@ class FrameStats:
         self.recoveries.update(catch_up_recoveries)
         self.recoveries.update(["carried"] * sum(r.carried for r in reports))  # garment frames carried after one
         self.recoveries.update(["retried"] * sum(r.retries for r in reports))  # tries run again (``frame_retries``)
+        self.recoveries.update(["replayed"] * sum(r.replays for r in reports))  # replays (``replay_frames``)
         self.recoveries.update(["retries_cut"] * sum(r.retries_cut for r in reports))  # stopped by ``retry_budget``
         self._substeps += max(r.substeps for r in reports)
         self._stages["integration"] += sum(r.integration_s for r in reports)
