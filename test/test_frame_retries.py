@@ -81,10 +81,9 @@ def test_a_retried_frame_keeps_its_best_try(clip, garment, speed, fps, mends):
         assert substeps in [planned * 2 ** k for k in range(DEFAULT_PARAMS.frame_retries + 1)]
     if mends:  # a frame torn when run once and whole with more substeps, no bone through it either way
         assert any(single[2] and not kept[2] and kept[1] == 0 for kept, single, _, _ in compared), compared
-    else:  # frames no try mends keep their least damaged try (asserted in ``_play_comparing``), and the frames
-        # after them run once
+    else:  # frames no try nor replay mends keep their least damaged try (asserted in ``_play_comparing``); the frames
+        # after them run once unless they grow worse (the assertion on ``due`` above)
         assert any(kept[:4] != (False, 0, False, 0.0) for kept, _, _, _ in compared), compared
-        assert sum(not whole for _, whole, _ in frames_seen) > len(compared)
 
 
 def test_frames_run_once_without_retries():
