@@ -95,11 +95,12 @@ PARAMETERS: tuple[Param, ...] = (
     Param("frame_retries", 5, "1", 0, 8,
           "a frame that starts with the garment whole and ends with a limb bone through a triangle, a structural or "
           "shear spring past 1.5 x its rest length or their p99 past 1.05, one that ends more damaged than it "
-          "started, and any frame with a spring past the guard's 10 x, runs again from its start with twice the "
-          "substeps, at most this many times (a frame then "
+          "started (with replay_frames), and any frame with a spring past the guard's 10 x, runs again from its "
+          "start with twice the substeps, at most this many times (a frame then "
           "costs up to 2^(n+1) - 1 times one); the least damaged try is kept, one that ran away last; 0: off"),
-    Param("replay_frames", 2, "1", 0, 8,
-          "a frame its retries (frame_retries) leave damaged, having started whole or ended worse than it started, "
+    Param("replay_frames", 0, "1", 0, 8,
+          "opt-in (measured, not yet the default): with it, a frame that ends more damaged than it started is retried "
+          "too (frame_retries), and a frame its retries leave damaged, having started whole or ended worse, "
           "runs again from the start of the replay_frames frames before it, those and it at 4, 8, then 16 x their "
           "planned substeps, and the least damaged end is kept: a tear whose cause lies a frame or two back (cloth "
           "caught under a forearm) that no retry of its own frame mends; the frames already shown stay as they "

@@ -248,7 +248,8 @@ def test_surface_depth_sees_a_sphere_bulging_between_cloth_points_that_are_all_o
 ROW_KEYS = {"clip", "garment", "speed", "fps", "nudge", "frames", "bones_frames", "bones_max", "limb_tubes",
             "legs_off_frames", "deep_frames", "deep_share", "max_depth_mm", "pressed_mm", "surface_depth_mm",
             "structural_stretch_p99", "structural_stretch_max", "shear_stretch_p99", "shear_stretch_max",
-            "guard_firings", "carried_frames", "retried_frames", "joint_glitches", "joint_glitches_text", "targets",
+            "guard_firings", "carried_frames", "retried_frames", "replayed_frames", "joint_glitches",
+            "joint_glitches_text", "targets",
             "passed", "wall_s"}
 
 

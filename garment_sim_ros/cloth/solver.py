@@ -42,11 +42,12 @@ there that the limiting's handling took out (``kernels.undo_limiting``).
 
 Frame retries (``frame_retries``, beyond the memo): a frame that starts with the garment whole and ends with a
 bone through it or a spring torn past 1.5x (or the springs' p99 past 1.05), one that ends more damaged than it
-started (``_worse``), and any frame with a spring past the guard's 10x, runs again from its start with twice the
-substeps, up to ``frame_retries`` times, and the least damaged try is kept (``RETRY_STRETCH``); an adaptive step
-that pays only where the cloth went wrong, as production cloth solvers retry a failed step with smaller ones.
-Replays (``replay_frames``): where no retry of the frame mends it, the frames before it run again with it from
-their start, with more substeps (``_replay``): the cause of a tear can lie a frame or two back.
+started (``_worse``; with ``replay_frames``), and any frame with a spring past the guard's 10x, runs again from its
+start with twice the substeps, up to ``frame_retries`` times, and the least damaged try is kept (``RETRY_STRETCH``);
+an adaptive step that pays only where the cloth went wrong, as production cloth solvers retry a failed step with
+smaller ones. Replays (``replay_frames``, opt-in: measured better, not yet the default): where no retry of the frame
+mends it, the frames before it run again with it from their start, with more substeps (``_replay``): the cause of a
+tear can lie a frame or two back.
 
 Sliding, opt-in (``strain_limit_slide``): the strain limiting's contact handling is static, a point the
 correction pulled into a volume going out across the nearest surface, not back to the side it came from at the
@@ -424,6 +425,7 @@ class GarmentSolver:
         checked = params.frame_retries > 0 and collider is not None
         retries = params.frame_retries if checked and self._whole else 0
         start = self._last_damage  # what the frame starts with (``_worse``)
+        replaying = params.replay_frames > 0  # opt-in: frames that grow worse retried, replays
         best = None  # (damage, state, substeps, substep length, the collision's counters) of the best try
         planned = (frame, count, h, dt, poses0, poses1)  # this frame as ``_history`` holds it
         started = time.perf_counter()
@@ -434,7 +436,7 @@ class GarmentSolver:
             damage = self._damage(report) if checked else None
             if best is None or damage < best[0]:
                 best = (damage, self.state, count, h, (report.static_hits, report.dynamic_hits, report.pressed_depth_m))
-            if report.retries == 0 and checked and (damage[0] or self._worse(damage, start)):
+            if report.retries == 0 and checked and (damage[0] or (replaying and self._worse(damage, start))):
                 retries = params.frame_retries  # the guard would fire, or it grew worse: again whatever the start
             if retries == 0 or damage[:4] == _WHOLE:
                 break
@@ -446,7 +448,7 @@ class GarmentSolver:
             self.state = last_good.copy()
             count, h = 2 * count, 0.5 * h
             report.retries += 1
-        if (checked and params.replay_frames > 0 and self._history and best[0][:4] != _WHOLE and not report.retries_cut
+        if (checked and replaying and self._history and best[0][:4] != _WHOLE and not report.retries_cut
                 and (self._whole or self._worse(best[0], start))):
             best = self._replay(planned, last_good, best, report, started)
         if best[1] is not self.state:  # an earlier try was better: it is kept
