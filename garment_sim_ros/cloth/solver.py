@@ -523,7 +523,7 @@ class GarmentSolver:
     # the cartwheel's skirts at 1x 30 fps kept a 0-bone try at 11.7x over a 1-bone one at 4.6x, and the guard
     # fired; with five retries a try at 16x and 32x the substeps mends both (2026-12-02, second session). And a frame
     # that ends worse than it started (``_worse``) is retried too: damage that lasts is not retried frame after frame,
-    # but damage that grows is (2026-12-02, third session; docs/real_motion.md).
+    # but damage that grows is (2026-12-02, fourth session, opt-in with ``replay_frames``; docs/real_motion.md).
     RETRY_STRETCH = STRETCH_MAX_TARGET
     RETRY_P99 = STRETCH_P99_TARGET
 
