@@ -64,6 +64,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -98,6 +99,17 @@ class DerivedConstants:
     stiffness: np.ndarray
     damping: np.ndarray
     limited_springs: int  # springs whose stiffness or damping was capped for stability
+
+
+class PlannedFrame(NamedTuple):
+    """A frame as ``GarmentSolver.advance`` planned it, kept for ``_replay``."""
+
+    frame: FrameInput
+    count: int  # planned substeps
+    h: float  # s, their length
+    dt: float  # s, the frame's length
+    poses0: tuple  # the volumes' (positions, rotations) in the simulation frame at the frame's start
+    poses1: tuple  # and at its end
 
 
 def derive_constants(model: ClothModel, params: SolverParams) -> DerivedConstants:
@@ -229,9 +241,9 @@ class GarmentSolver:
         self._stretch_groups = stretch_groups(model.spring_kinds)
         self._whole = True  # the last frame ended undamaged (``_damage``): the next may be retried
         self._last_damage: tuple | None = None  # the last frame's kept ``_damage``: what the next starts with
-        # (start state, frame, planned substeps, their length, dt, volume poses at both ends) of the last
-        # ``replay_frames`` frames, for ``_replay``; emptied where the garment was put somewhere (reset, carry, guard)
-        self._history: list[tuple] = []
+        # (start state, ``PlannedFrame``) of the last ``replay_frames`` frames, for ``_replay``; emptied where the
+        # garment was put somewhere (reset, carry, guard)
+        self._history: list[tuple[ClothState, PlannedFrame]] = []
         self._edges = np.ascontiguousarray(model.springs[model.spring_kinds == STRUCTURAL])
         self._edge_rest = np.ascontiguousarray(model.rest_lengths[model.spring_kinds == STRUCTURAL])
         self._triangles = np.ascontiguousarray(model.triangles, dtype=np.int64)
@@ -427,7 +439,7 @@ class GarmentSolver:
         start = self._last_damage  # what the frame starts with (``_worse``)
         replaying = params.replay_frames > 0  # opt-in: frames that grow worse retried, replays
         best = None  # (damage, state, substeps, substep length, the collision's counters) of the best try
-        planned = (frame, count, h, dt, poses0, poses1)  # this frame as ``_history`` holds it
+        planned = PlannedFrame(frame, count, h, dt, poses0, poses1)  # this frame as ``_history`` holds it
         started = time.perf_counter()
         while True:
             try_started = time.perf_counter()
@@ -435,7 +447,7 @@ class GarmentSolver:
             self._measure_stretch(report)
             damage = self._damage(report) if checked else None
             if best is None or damage < best[0]:
-                best = (damage, self.state, count, h, (report.static_hits, report.dynamic_hits, report.pressed_depth_m))
+                best = self._try_result(damage, count, h, report)
             if report.retries == 0 and checked and (damage[0] or (replaying and self._worse(damage, start))):
                 retries = params.frame_retries  # the guard would fire, or it grew worse: again whatever the start
             if retries == 0 or damage[:4] == _WHOLE:
@@ -463,7 +475,7 @@ class GarmentSolver:
         if report.recovery or not checked or params.replay_frames == 0:
             self._history.clear()
         else:
-            self._history.append((last_good, *planned))
+            self._history.append((last_good, planned))
             del self._history[:-params.replay_frames]
         return report
 
@@ -474,14 +486,14 @@ class GarmentSolver:
     # are not taken back: only the state the frame ends with changes.
     REPLAY_SCALES = (4, 8, 16)
 
-    def _replay(self, planned: tuple, last_good: ClothState, best: tuple, report: FrameReport,
+    def _replay(self, planned: PlannedFrame, last_good: ClothState, best: tuple, report: FrameReport,
                 started: float) -> tuple:
         """Run ``_history``'s frames and this one (``planned``, which started at ``last_good``) again from the
         first's start, at each of ``REPLAY_SCALES`` times their planned substeps, until one ends whole; returns
         ``advance``'s ``best`` with the least damaged end of these and of the frame's own tries."""
-        frames = [entry[1:] for entry in self._history] + [planned]
-        substeps = sum(entry[1] for entry in frames)
-        run = planned[1] * (2 ** (report.retries + 1) - 1)  # substeps the frame's tries ran
+        frames = [earlier for _, earlier in self._history] + [planned]
+        substeps = sum(f.count for f in frames)
+        run = planned.count * (2 ** (report.retries + 1) - 1)  # substeps the frame's tries ran
         for scale in self.REPLAY_SCALES:
             spent = time.perf_counter() - started  # the replay's substeps at the tries' cost per substep
             if self.params.retry_budget > 0.0 and spent * (1.0 + scale * substeps / run) > self.params.retry_budget:
@@ -489,18 +501,22 @@ class GarmentSolver:
                 break
             run += scale * substeps
             self.state = self._history[0][0].copy()
-            for frame, count, h, dt, poses0, poses1 in frames:
-                self._substeps(frame, scale * count, h / scale, dt, poses0, poses1, report)
+            for f in frames:
+                self._substeps(f.frame, scale * f.count, f.h / scale, f.dt, f.poses0, f.poses1, report)
             self.state.lag = last_good.lag
             self._measure_stretch(report)
             damage = self._damage(report)
             report.replays += 1
             if damage < best[0]:
-                best = (damage, self.state, scale * planned[1], planned[2] / scale,
-                        (report.static_hits, report.dynamic_hits, report.pressed_depth_m))
+                best = self._try_result(damage, scale * planned.count, planned.h / scale, report)
             if damage[:4] == _WHOLE:
                 break
         return best
+
+    def _try_result(self, damage: tuple, count: int, h: float, report: FrameReport) -> tuple:
+        """``advance``'s ``best`` for the garment as a try of ``count`` substeps of ``h`` s left it: (damage, state,
+        substeps, substep length, the collision's counters in ``report``)."""
+        return damage, self.state, count, h, (report.static_hits, report.dynamic_hits, report.pressed_depth_m)
 
     def _worse(self, damage: tuple, start: tuple | None) -> bool:
         """``damage`` (``_damage``) is worse than ``start``, the damage the frame started with (None: unknown, after
