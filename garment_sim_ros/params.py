@@ -37,6 +37,14 @@ class Param:
     high: float | None
     description: str
     choices: tuple[str, ...] = ()
+    # The ROS node's default where a real-time node needs another than the offline commands, whose figures must not
+    # depend on the machine's speed (None: ``default``); ``node_value`` reads it
+    node_default: Any = None
+
+    @property
+    def node_value(self) -> Any:
+        """The default the node declares (``node_default``, else ``default``)."""
+        return self.default if self.node_default is None else self.node_default
 
     def check(self, value: Any) -> Any:
         """Return the value normalised to the parameter's type, or raise ParameterError."""
@@ -108,7 +116,10 @@ PARAMETERS: tuple[Param, ...] = (
     Param("retry_budget", 0.0, "s", 0.0, 10.0,
           "wall-clock bound on a frame's tries (frame_retries): no further try starts once the tries so far and the "
           "next (about twice the last) would pass it, the frame then reported (FrameReport.retries_cut); for a node "
-          "that must not stall a second on an acrobatic clip, e.g. 0.1; 0: no bound (evaluate's figures are of that)"),
+          "that must not stall a second on an acrobatic clip, e.g. 0.1; 0: no bound (the offline commands' default: "
+          "evaluate's figures are of that); the node's default is 0.05: unbounded, a frame's tries stalled a node on a "
+          "2-core machine, each late frame longer and so retried more (5 marker arrays/s against 25 without retries, "
+          "2026-12-03)", node_default=0.05),
     Param("correction_iterations", 4, "1", 0, 200,
           "Provot length-correction iterations per substep (contacts are handled after the first)"),
     Param("limit_ratio", 0.01, "1", 0.0, 1.0,

@@ -402,12 +402,21 @@ def test_watching_the_start_up_params_file_applies_only_later_edits(graph, tmp_p
     assert graph.spin_until(lambda: node.get_parameter("friction").value == 0.35, 3.0)
 
 
+def test_the_node_bounds_a_frames_retries_and_the_offline_commands_do_not(graph):
+    """``retry_budget``'s node default (0.05 s): a real-time node must not stall on a frame's tries; the offline
+    commands (``DEFAULT_PARAMS``, evaluate's figures) keep them unbounded, independent of the machine's speed."""
+    node = garment_node(graph)
+    assert node.get_parameter("retry_budget").value == 0.05 and node.solver_params.retry_budget == 0.05
+    assert DEFAULT_PARAMS.retry_budget == 0.0
+    assert [p.name for p in PARAMETERS if p.node_value != p.default] == ["retry_budget"]
+
+
 def test_config_file_holds_every_parameter_at_its_default_and_loads_at_start(graph):
     data = yaml.safe_load(CONFIG.read_text())
     values = data["garment_sim_node"]["ros__parameters"]
     assert set(values) == {p.name for p in ALL_PARAMETERS}
     for row in ALL_PARAMETERS:
-        assert check_value(row.name, values[row.name]) == check_value(row.name, row.default), row.name
+        assert check_value(row.name, values[row.name]) == check_value(row.name, row.node_value), row.name
 
     node = graph.add(GarmentSimNode(context=graph.context, cli_args=["--ros-args", "--params-file", str(CONFIG),
                                                                       "-p", "substep:=7.0", "-p", "friction:=0.3"]))

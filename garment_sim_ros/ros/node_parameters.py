@@ -49,10 +49,10 @@ class NodeParameters:
         node.add_on_set_parameters_callback(self._check)
         for row in ALL_PARAMETERS:
             try:
-                node.declare_parameter(row.name, ros_value(row.default), descriptor(row))
+                node.declare_parameter(row.name, ros_value(row.node_value), descriptor(row))
             except (InvalidParameterTypeException, InvalidParameterValueException) as err:
-                logger.error(f"start-up parameter refused: {err}; using the default {row.default!r}")
-                node.declare_parameter(row.name, ros_value(row.default), descriptor(row), ignore_override=True)
+                logger.error(f"start-up parameter refused: {err}; using the default {row.node_value!r}")
+                node.declare_parameter(row.name, ros_value(row.node_value), descriptor(row), ignore_override=True)
             self.values[row.name] = row.check(plain(node.get_parameter(row.name).value))
         unknown = sorted({p.name for p in overrides} - set(PARAMETER_ROWS) - {"use_sim_time"})
         if unknown:

@@ -26,7 +26,8 @@ module decides what happens:
    while (about a second of simulation, more on a busy machine) and a shorter hold leaves a gap
    too: the frame after either covers it in pieces the solver simulates in full (``max_substeps``
    each, at most ``MAX_CATCH_UP_FRAMES`` and ``catch_up_wall_s`` of compute), so the garment is
-   not dragged across the gap in a few substeps. Otherwise a frame longer than
+   not dragged across the gap in a few substeps; the frame after a catch-up catches up too while
+   that gains (``CATCH_UP_GAIN``: on a machine too slow for it, it would never end). Otherwise a frame longer than
    ``max_substeps x substep`` lags (memo §3), which the diagnostics report; so does what a
    catch-up could not cover.
 3. Bad input while running (each counted in ``counts`` under its reason and logged, throttled):
@@ -90,6 +91,11 @@ from .skeleton_setup import bones_unsettled, map_joints, skeleton_roots
 RESUME_GAP_S = 1.0  # a hold longer than this re-dresses (the body moved arbitrarily meanwhile)
 MAX_CATCH_UP_FRAMES = 25  # a frame covers a gap in at most this many full frames (1 s by default)
 CATCH_UP_WALL_S = 0.1  # ...and spends at most about this long on them (a busy machine lags instead)
+# The frame after a catch-up spans the catch-up's own compute, so catching up goes on only while it gains: a catch-up
+# that took more than this fraction of the time it covered stops, and the frames after it lag (reported) instead. On
+# a machine where a full frame costs about its span (a 2-core EPYC, the one-piece on the 142-joint rig: ~35 ms per
+# 40 ms), "the next frame catches up too" never ended: every tick was ~0.19 s of catch-up pieces, 5 fps (issue 17).
+CATCH_UP_GAIN = 0.5
 CLOCK_JUMP_BACK_S = 1.0  # a clock this far behind the last frame restarts (sim time reset, looped bag)
 BEHIND_WARNING_S = 1.0  # running behind the clock this long is logged (the status says so at once)
 _USABLE = (SampleStatus.OK, SampleStatus.EXTRAPOLATED)
@@ -252,7 +258,9 @@ class CharacterLoop:
         # simulate in full instead of one frame that lags for good: the body's motion is in the buffer
         # (interpolated across a hold).
         pieces = min(math.ceil(frame_s / budget_s), MAX_CATCH_UP_FRAMES) if self._catching_up else 1
-        self._catching_up = pieces > 1  # the next frame spans this one's catch-up compute: catch up too
+        self._catching_up = pieces > 1  # the next frame spans this one's catch-up compute: catch up too (if it gains)
+        if pieces > 1:
+            self.counts["catch_up_frames"] += 1  # diagnostics loop_catch_up_frames
         self._just_dressed = False
         start = self.last_time
         catch_up_recoveries: list[str] = []
@@ -283,6 +291,8 @@ class CharacterLoop:
                 break
             catch_up_recoveries += [r.recovery for r in reports if r.recovery]
         step_s = time.perf_counter() - tic
+        if step_s > CATCH_UP_GAIN * frame_s:  # the next gap would not be much shorter: lag instead of spiralling
+            self._catching_up = False
         self._running(time_s)
         penetration_m = max((r.max_depth_m for r in reports), default=0.0) if measured else math.nan
         return FrameResult(time_s, sample.pose, reports, frame_s, step_s, penetration_m, False, measured,
