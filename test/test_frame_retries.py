@@ -100,13 +100,17 @@ def test_frames_run_once_without_retries():
 
 
 def test_a_frame_the_guard_would_re_fit_keeps_a_try_that_did_not_run_away():
-    """The cartwheel's short skirt at 1x 30 fps, 2.5 s: run once, a spring ends past ``RUNAWAY_STRETCH`` (10 rest
-    lengths) and the guard re-fits the garment; the retries find a try that did not run away, which is kept
-    whatever else it has (a bone through it rather than a re-fit), and the guard never fires."""
+    """The cartwheel's short skirt at 1x 30 fps, to its end: run once, a spring ends past ``RUNAWAY_STRETCH`` and
+    the guard re-fits the garment; the retries find a try that did not run away, which is kept whatever else it has
+    (a bone through it rather than a re-fit), and the guard never fires. The threshold is lowered from 10 to 5 rest
+    lengths for this solver (guard and retries alike): past 10 the case is a trajectory one machine plays and
+    another not (on 2026-12-02's, not on 2026-12-03's); past 5 (2.5 s: 6.69 on the first try, 1.02 kept, measured
+    2026-12-03) it is there more broadly, and the mechanism does not depend on the value."""
     params = preset("si")
     source = bvh_source(str(DATA / "cc_cmu_05_06_dance_cartwheel_pirouette.bvh"), loop=False, params=params)
     character = make_character(source.rest_pose, source.joint_map, ["short_skirt"], params, motion=source.fit_poses())
     solver = character.solvers[0]
+    solver.RUNAWAY_STRETCH = 5.0
     damage, tries, frames_tried = solver._damage, [], []
 
     def recorded_damage(report):

@@ -250,11 +250,12 @@ def test_the_strain_limiting_slide_is_an_opt_in_for_garments_without_limb_tubes(
     """``strain_limit_slide`` (opt-in): the strain limiting's contact handling puts a point the correction pulled into
     a volume out across the nearest surface (static), in garments without limb tubes; a trouser leg keeps the side
     it came from. On the CC cartwheel's long skirt, 1x at 60 fps, to 2.5 s (upside down from 1.9 s, the skirt over
-    the chest, the band held), it changes the run and keeps it out of the body. What it was adopted for there (p99
-    2.03 -> 1.05) was one trajectory: measured 2026-12-01 on the defaults of then (48 strain-limiting sweeps), over
-    three starts the worst frame's structural p99 is 1.40 / 1.35 / 1.43 without it and 2.04 / 1.45 / 1.05 with it
-    (docs/real_motion.md, "A band that gives way without tearing"); so it stays off by default and no gain is
-    claimed."""
+    the chest, the band held), it changes the run (the points, frame by frame: on 2026-12-03's machine the worst
+    frame's p99 came out the same, 1.0262, with it and without) and keeps it out of the body. What it was adopted
+    for there (p99 2.03 -> 1.05) was one trajectory: measured 2026-12-01 on the defaults of then (48 strain-limiting
+    sweeps), over three starts the worst frame's structural p99 is 1.40 / 1.35 / 1.43 without it and 2.04 / 1.45 /
+    1.05 with it (docs/real_motion.md, "A band that gives way without tearing"); so it stays off by default and no
+    gain is claimed."""
     params = preset("si").replace(strain_limit_slide=1)
     source = bvh_source(str(DATA / "cc_cmu_05_06_dance_cartwheel_pirouette.bvh"), loop=False)
     character = make_character(source.rest_pose, source.joint_map, ["long_skirt", "pants"], params,
@@ -263,14 +264,19 @@ def test_the_strain_limiting_slide_is_an_opt_in_for_garments_without_limb_tubes(
     assert not any(solver.limit_slides for solver in make_character(
         source.rest_pose, source.joint_map, ["long_skirt"], preset("si"), motion=source.fit_poses()).solvers)
 
-    def slide(character):
-        for solver in character.solvers:
-            solver.set_params(solver.params.replace(strain_limit_slide=1))
+    ends = {0: [], 1: []}  # the skirt's points after each frame, without and with the slide
+
+    def dressed(slides):
+        def after(character):
+            solver = character.solvers[0]
+            solver.set_params(solver.params.replace(strain_limit_slide=slides))
+            _after_each_call(character, "step", lambda _reports: ends[slides].append(solver.state.positions.copy()))
+        return after
 
     rows = [evaluate_run(Run(str(DATA / "cc_cmu_05_06_dance_cartwheel_pirouette.bvh"), "long_skirt", 1.0, 60.0, 2.5,
-                             params=HELD_BAND), after_dressing=after) for after in (None, slide)]
-    assert rows[0]["frames"] == rows[1]["frames"] == 150
-    assert rows[0]["structural_stretch_p99"] != rows[1]["structural_stretch_p99"]
+                             params=HELD_BAND), after_dressing=dressed(slides)) for slides in (0, 1)]
+    assert rows[0]["frames"] == rows[1]["frames"] == len(ends[0]) == len(ends[1]) == 150
+    assert any(not np.array_equal(a, b) for a, b in zip(ends[0], ends[1]))  # the slide acted (not only in p99)
     assert all(row["max_depth_mm"] < 5.0 for row in rows), [row["max_depth_mm"] for row in rows]
 
 
@@ -389,32 +395,42 @@ def test_a_trouser_leg_stays_on_the_shin_through_a_kneel(monkeypatch):
     shin, and the kneel, the leg moving along itself under the cloth, took it over the knee onto the thigh (0.54-0.90
     along it, frames 190-215), the leg's rings stacked at the hip, stretched round it: the worst frame's p99
     1.94. Friction along the bones for the trouser legs (``axial_friction`` 0.5, opt-in) carries the leg a limb
-    presses on along it and keeps a stretched spring from sliding a ring it grips up the limb: the hem stays on
-    the shin (off: on the thigh over frames 188-214), p99 1.44 (off: 2.02). Measured on the trousers cut before the
-    crotch's width ease, and played so (``_CROTCH_WIDTH_EASE_PER_THIGH`` 0): with it the hem stays on the shin too
-    and the p99 is 1.39, but one frame has a bone through the cloth (the opt-in's cost, docs/real_motion.md)."""
+    presses on along it and keeps a stretched spring from sliding a ring it grips up the limb: the hem ends the kneel
+    on the shin, on the thigh in a few frames at its start at most, and the p99 is lower. Measured 2026-12-03 over
+    three starts (seeds 0 / 1 / 2): with it on the thigh in 3 / 5 / 0 frames (171-177), p99 1.53 / 1.54 / 1.50;
+    without, 20 / 35 / 22 frames, still there at 205-214, p99 1.79 / 2.00 / 1.77 (on 2026-12-02's machine seed 0
+    with it never, without 188-214). Played on the trousers cut before the crotch's width ease
+    (``_CROTCH_WIDTH_EASE_PER_THIGH`` 0), as when it was measured first."""
     from garment_sim_ros.cloth import garments
 
     monkeypatch.setattr(garments, "_CROTCH_WIDTH_EASE_PER_THIGH", 0.0)
-    hem_on_thigh = []
+    runs = {}
+    for friction in (0.5, 0.0):
+        hem_on_thigh = runs[friction] = []
 
-    def watch_hem(character):
-        solver = character.solvers[0]
-        names, arrays = solver.volumes.names(), solver.collider.arrays
-        shin, thigh = names.index("left_lower_leg"), names.index("left_upper_leg")
-        hem = solver.model.rings["left_leg"][-1]
+        def watch_hem(character, hem_on_thigh=hem_on_thigh):
+            solver = character.solvers[0]
+            names, arrays = solver.volumes.names(), solver.collider.arrays
+            shin, thigh = names.index("left_lower_leg"), names.index("left_upper_leg")
+            hem = solver.model.rings["left_leg"][-1]
 
-        def place(_report):
-            x = solver.state.positions[hem]
-            hem_on_thigh.append(_mean_distance_from_bone(x, arrays, thigh) < _mean_distance_from_bone(x, arrays, shin))
+            def place(_report):
+                x = solver.state.positions[hem]
+                hem_on_thigh.append(_mean_distance_from_bone(x, arrays, thigh)
+                                    < _mean_distance_from_bone(x, arrays, shin))
 
-        _after_each_call(solver, "advance", place)
+            _after_each_call(solver, "advance", place)
 
-    row = evaluate_run(Run(str(DATA / "cmu_131_01_walk_mjstyle.bvh"), "pants", 1.0, 60.0, 3.6,
-                           params=(("axial_friction", 0.5), *HELD_BAND)), after_dressing=watch_hem)
-    assert row["frames"] == 216 and len(hem_on_thigh) == 216
-    assert not any(hem_on_thigh), np.flatnonzero(hem_on_thigh)
-    assert row["structural_stretch_p99"] < 1.6, row["structural_stretch_p99"]
+        row = runs[friction, "row"] = evaluate_run(Run(
+            str(DATA / "cmu_131_01_walk_mjstyle.bvh"), "pants", 1.0, 60.0, 3.6,
+            params=(("axial_friction", friction), *HELD_BAND)), after_dressing=watch_hem)
+        assert row["frames"] == 216 and len(hem_on_thigh) == 216
+    held, slid = np.array(runs[0.5]), np.array(runs[0.0])
+    assert not held[186:].any() and slid[186:].any(), (np.flatnonzero(held), np.flatnonzero(slid))
+    assert held.sum() <= 0.25 * slid.sum(), (np.flatnonzero(held), np.flatnonzero(slid))
+    p99 = [runs[friction, "row"]["structural_stretch_p99"] for friction in (0.5, 0.0)]
+    assert p99[0] < 1.6 and p99[0] < p99[1] - 0.1, p99
+    row = runs[0.5, "row"]
     assert (row["bones_frames"], row["legs_off_frames"], row["deep_frames"]) == (0, 0, 0)
 
 
@@ -461,13 +477,16 @@ def test_the_trousers_seat_on_the_pelvis_open_bottom_leaves_through_it(monkeypat
     up through it and the contact handling put it 31-72 mm sideways onto the rim, and the edges then left springs
     at 4-7 rest lengths (bone frames, longest spring 7.40). A point within ``open_cut_band`` (3 mm, the default) of
     that cut leaves through it. With it off (and the band held, as when the runaway was recorded) the runaway is
-    there in each of three starts; with it, fewer bone frames and a shorter longest spring in each (measured
-    2026-12-01: bone frames 3 / 4 / 3 -> 2 / 3 / 1, longest 7.4 / 4.75 / 5.89 -> 1.93 / 2.8 / 3.94). On the trousers
-    cut so, before the crotch's width ease (``_CROTCH_WIDTH_EASE_PER_THIGH`` 0): with it the runaway the rule mends
-    is not there (seed 0, the rule off / on: 1 bone frame, longest 3.47 / 4.70; docs/real_motion.md)."""
+    there in each of three starts; with it, a shorter longest spring and a lower p99 in each, and fewer bone frames
+    over the three (measured 2026-12-01: bone frames 3 / 4 / 3 -> 2 / 3 / 1, longest 7.4 / 4.75 / 5.89 -> 1.93 / 2.8 /
+    3.94; 2026-12-03, another machine: bone frames 3 / 3 / 2 -> 2 / 2 / 3, longest 5.93 / 6.53 / 4.70 -> 3.61 / 2.73 /
+    3.41, p99 2.00 / 1.82 / 1.76 -> 1.36 / 1.28 / 1.02). On the trousers cut so, before the crotch's width ease
+    (``_CROTCH_WIDTH_EASE_PER_THIGH`` 0): with it the runaway the rule mends is not there (seed 0, the rule off / on:
+    1 bone frame, longest 3.47 / 4.70; docs/real_motion.md)."""
     from garment_sim_ros.cloth import garments
 
     monkeypatch.setattr(garments, "_CROTCH_WIDTH_EASE_PER_THIGH", 0.0)
+    bone_frames = [0, 0]  # summed over the starts, the rule off and on
     for nudge in (0, 1, 2):
         rows = [evaluate_run(Run(str(DATA / "cc_cmu_02_04_jump_balance.bvh"), "pants", 3.0, 30.0, 3.0,
                                  params=(("open_cut_band", band), ("band_gives_way", 0), ("frame_retries", 0)),
@@ -475,8 +494,11 @@ def test_the_trousers_seat_on_the_pelvis_open_bottom_leaves_through_it(monkeypat
                 for band in (0.0, 0.003)]
         figures = [(row["bones_frames"], round(row["structural_stretch_max"], 2)) for row in rows]
         assert rows[0]["bones_frames"] > 0 and rows[0]["structural_stretch_max"] > 4.0, (nudge, figures)
-        assert rows[1]["bones_frames"] < rows[0]["bones_frames"], (nudge, figures)
         assert rows[1]["structural_stretch_max"] < rows[0]["structural_stretch_max"], (nudge, figures)
+        assert rows[1]["structural_stretch_p99"] < rows[0]["structural_stretch_p99"], (nudge, figures)
+        bone_frames[0] += rows[0]["bones_frames"]
+        bone_frames[1] += rows[1]["bones_frames"]
+    assert bone_frames[1] < bone_frames[0], bone_frames
 
 
 def test_dressing_does_not_use_the_open_cut_exit():
