@@ -389,6 +389,24 @@ def _mean_distance_from_bone(points: np.ndarray, arrays, v: int) -> float:
     return float(np.mean(np.hypot(np.hypot(local[:, 0], local[:, 1]), local[:, 2] - along)))
 
 
+def _watch_hem_on_thigh(hem_on_thigh: list):
+    """An ``after_dressing`` for ``evaluate_run`` that appends, after every frame, whether the trousers' left hem is
+    nearer the thigh's bone than the shin's to ``hem_on_thigh``."""
+    def watch(character):
+        solver = character.solvers[0]
+        names, arrays = solver.volumes.names(), solver.collider.arrays
+        shin, thigh = names.index("left_lower_leg"), names.index("left_upper_leg")
+        hem = solver.model.rings["left_leg"][-1]
+
+        def place(_report):
+            x = solver.state.positions[hem]
+            hem_on_thigh.append(_mean_distance_from_bone(x, arrays, thigh) < _mean_distance_from_bone(x, arrays, shin))
+
+        _after_each_call(solver, "advance", place)
+
+    return watch
+
+
 def test_a_trouser_leg_stays_on_the_shin_through_a_kneel(monkeypatch):
     """cmu_131, trousers, 1x at 60 fps, to the end of the kneel (frames 170-215: the pelvis 0.89 -> 0.53 m, the
     left knee flexed 95-121 deg; issue 11 (d)). The walk before it had walked the left hem up to 0.43-0.57 of the
@@ -404,33 +422,19 @@ def test_a_trouser_leg_stays_on_the_shin_through_a_kneel(monkeypatch):
     from garment_sim_ros.cloth import garments
 
     monkeypatch.setattr(garments, "_CROTCH_WIDTH_EASE_PER_THIGH", 0.0)
-    runs = {}
+    on_thigh, rows = {}, {}  # per axial_friction: the hem on the thigh after each frame; the run's row
     for friction in (0.5, 0.0):
-        hem_on_thigh = runs[friction] = []
-
-        def watch_hem(character, hem_on_thigh=hem_on_thigh):
-            solver = character.solvers[0]
-            names, arrays = solver.volumes.names(), solver.collider.arrays
-            shin, thigh = names.index("left_lower_leg"), names.index("left_upper_leg")
-            hem = solver.model.rings["left_leg"][-1]
-
-            def place(_report):
-                x = solver.state.positions[hem]
-                hem_on_thigh.append(_mean_distance_from_bone(x, arrays, thigh)
-                                    < _mean_distance_from_bone(x, arrays, shin))
-
-            _after_each_call(solver, "advance", place)
-
-        row = runs[friction, "row"] = evaluate_run(Run(
-            str(DATA / "cmu_131_01_walk_mjstyle.bvh"), "pants", 1.0, 60.0, 3.6,
-            params=(("axial_friction", friction), *HELD_BAND)), after_dressing=watch_hem)
-        assert row["frames"] == 216 and len(hem_on_thigh) == 216
-    held, slid = np.array(runs[0.5]), np.array(runs[0.0])
+        on_thigh[friction] = []
+        rows[friction] = evaluate_run(Run(str(DATA / "cmu_131_01_walk_mjstyle.bvh"), "pants", 1.0, 60.0, 3.6,
+                                          params=(("axial_friction", friction), *HELD_BAND)),
+                                      after_dressing=_watch_hem_on_thigh(on_thigh[friction]))
+        assert rows[friction]["frames"] == 216 and len(on_thigh[friction]) == 216
+    held, slid = np.array(on_thigh[0.5]), np.array(on_thigh[0.0])
     assert not held[186:].any() and slid[186:].any(), (np.flatnonzero(held), np.flatnonzero(slid))
     assert held.sum() <= 0.25 * slid.sum(), (np.flatnonzero(held), np.flatnonzero(slid))
-    p99 = [runs[friction, "row"]["structural_stretch_p99"] for friction in (0.5, 0.0)]
+    p99 = [rows[friction]["structural_stretch_p99"] for friction in (0.5, 0.0)]
     assert p99[0] < 1.6 and p99[0] < p99[1] - 0.1, p99
-    row = runs[0.5, "row"]
+    row = rows[0.5]
     assert (row["bones_frames"], row["legs_off_frames"], row["deep_frames"]) == (0, 0, 0)
 
 

@@ -258,7 +258,6 @@ class CharacterLoop:
         # simulate in full instead of one frame that lags for good: the body's motion is in the buffer
         # (interpolated across a hold).
         pieces = min(math.ceil(frame_s / budget_s), MAX_CATCH_UP_FRAMES) if self._catching_up else 1
-        self._catching_up = pieces > 1  # the next frame spans this one's catch-up compute: catch up too (if it gains)
         if pieces > 1:
             self.counts["catch_up_frames"] += 1  # diagnostics loop_catch_up_frames
         self._just_dressed = False
@@ -291,8 +290,8 @@ class CharacterLoop:
                 break
             catch_up_recoveries += [r.recovery for r in reports if r.recovery]
         step_s = time.perf_counter() - tic
-        if step_s > CATCH_UP_GAIN * frame_s:  # the next gap would not be much shorter: lag instead of spiralling
-            self._catching_up = False
+        # The next frame spans this one's catch-up compute: it catches up too, if that gains (else it lags)
+        self._catching_up = pieces > 1 and step_s <= CATCH_UP_GAIN * frame_s
         self._running(time_s)
         penetration_m = max((r.max_depth_m for r in reports), default=0.0) if measured else math.nan
         return FrameResult(time_s, sample.pose, reports, frame_s, step_s, penetration_m, False, measured,
