@@ -342,8 +342,7 @@ class DressedCharacter:
             t += frame_s
         for solver, params in zip(solvers, running):
             solver.set_params(params)
-            solver.state.time = time_s
-            solver.state.lag = 0.0
+            solver.start_motion(time_s)
         return fired
 
     # A runaway within this long of the garment's last dressing is the same pose still pinching it: carried

@@ -106,13 +106,13 @@ PARAMETERS: tuple[Param, ...] = (
           "started (with replay_frames), and any frame with a spring past the guard's 10 x, runs again from its "
           "start with twice the substeps, at most this many times (a frame then "
           "costs up to 2^(n+1) - 1 times one); the least damaged try is kept, one that ran away last; 0: off"),
-    Param("replay_frames", 0, "1", 0, 8,
-          "opt-in (measured, not yet the default): with it, a frame that ends more damaged than it started is retried "
-          "too (frame_retries), and a frame its retries leave damaged, having started whole or ended worse, "
-          "runs again from the start of the replay_frames frames before it, those and it at 4, 8, then 16 x their "
-          "planned substeps, and the least damaged end is kept: a tear whose cause lies a frame or two back (cloth "
-          "caught under a forearm) that no retry of its own frame mends; the frames already shown stay as they "
-          "were; a replay costs up to 28 (n + 1) frames; 0: off"),
+    Param("replay_frames", 2, "1", 0, 8,
+          "with it (> 0), a frame that ends more damaged than it started is retried too (frame_retries), and a frame "
+          "its retries leave damaged, having started whole or ended worse, runs again from the start of the "
+          "replay_frames frames before it, those and it at 4, 8, then 16 x their planned substeps, and the least "
+          "damaged end is kept: a tear whose cause lies a frame or two back (cloth caught under a forearm) that no "
+          "retry of its own frame mends; the frames already shown stay as they were; a replay costs up to "
+          "28 (n + 1) frames; 0: off"),
     Param("retry_budget", 0.0, "s", 0.0, 10.0,
           "wall-clock bound on a frame's tries (frame_retries): no further try starts once the tries so far and the "
           "next (about twice the last) would pass it, the frame then reported (FrameReport.retries_cut); for a node "
@@ -334,6 +334,7 @@ PRESETS: dict[str, SolverParams] = {
         substep=0.04 / 6,
         strain_limit_iterations=0,  # beyond the memo: its experiments had neither
         frame_retries=0,
+        replay_frames=0,  # beyond the memo, like the retries
         tethers=0,
         contact_planes=0,  # beyond the memo: its volumes are rigid
         band_gives_way=0,  # beyond the memo: its waistband is where it is skinned

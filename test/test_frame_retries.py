@@ -159,8 +159,8 @@ def test_a_replay_keeps_the_least_damaged_end_and_mends_what_the_retries_could_n
     all left damaged (on 2026-12-02 the run fails (d) without replays, p99 1.18, and passes with them)."""
     from garment_sim_ros.commands.evaluate import nudge_free_points
 
-    params = preset("si").replace(replay_frames=2)  # opt-in
-    assert preset("si").replay_frames == 0
+    params = preset("si")
+    assert params.replay_frames == 2  # the default since 2026-12-03
     source = bvh_source(str(DATA / "cc_cmu_02_04_jump_balance.bvh"), loop=False, params=params)
     character = make_character(source.rest_pose, source.joint_map, ["long_skirt"], params, motion=source.fit_poses())
     solver = character.solvers[0]

@@ -45,7 +45,7 @@ bone through it or a spring torn past 1.5x (or the springs' p99 past 1.05), one 
 started (``_worse``; with ``replay_frames``), and any frame with a spring past the guard's 10x, runs again from its
 start with twice the substeps, up to ``frame_retries`` times, and the least damaged try is kept (``RETRY_STRETCH``);
 an adaptive step that pays only where the cloth went wrong, as production cloth solvers retry a failed step with
-smaller ones. Replays (``replay_frames``, opt-in: measured better, not yet the default): where no retry of the frame
+smaller ones. Replays (``replay_frames``, on by default since 2026-12-03; 0 turns them off): where no retry of the frame
 mends it, the frames before it run again with it from their start, with more substeps (``_replay``): the cause of a
 tear can lie a frame or two back.
 
@@ -242,7 +242,7 @@ class GarmentSolver:
         self._whole = True  # the last frame ended undamaged (``_damage``): the next may be retried
         self._last_damage: tuple | None = None  # the last frame's kept ``_damage``: what the next starts with
         # (start state, ``PlannedFrame``) of the last ``replay_frames`` frames, for ``_replay``; emptied where the
-        # garment was put somewhere (reset, carry, guard)
+        # garment was put somewhere (reset, carry, guard) and where its motion starts (``start_motion``)
         self._history: list[tuple[ClothState, PlannedFrame]] = []
         self._edges = np.ascontiguousarray(model.springs[model.spring_kinds == STRUCTURAL])
         self._edge_rest = np.ascontiguousarray(model.rest_lengths[model.spring_kinds == STRUCTURAL])
@@ -324,6 +324,14 @@ class GarmentSolver:
         self._history.clear()
         if self.volumes is not None and len(self.volumes):  # the motion constraints' rest binding
             self.skin = self.binding(x, root_position, root_yaw, frame_positions, frame_rotations)
+
+    def start_motion(self, time_s: float) -> None:
+        """The garment, dressed, starts following the motion at ``time_s`` s: the frames run so far (the dressing's,
+        at a still root on another clock) are not the motion's, and none of them is replayed (``_replay``): a
+        replay from there would also undo what was done to the dressed state since (a nudge, a test's move)."""
+        self.state.time = time_s
+        self.state.lag = 0.0
+        self._history.clear()
 
     CARRY_PASSES = 8  # ``carry``: length-correction passes, each with the collision handling, then as many without
 
@@ -437,7 +445,7 @@ class GarmentSolver:
         checked = params.frame_retries > 0 and collider is not None
         retries = params.frame_retries if checked and self._whole else 0
         start = self._last_damage  # what the frame starts with (``_worse``)
-        replaying = params.replay_frames > 0  # opt-in: frames that grow worse retried, replays
+        replaying = params.replay_frames > 0  # frames that grow worse retried, replays
         best = None  # (damage, state, substeps, substep length, the collision's counters) of the best try
         planned = PlannedFrame(frame, count, h, dt, poses0, poses1)  # this frame as ``_history`` holds it
         started = time.perf_counter()
@@ -539,7 +547,7 @@ class GarmentSolver:
     # the cartwheel's skirts at 1x 30 fps kept a 0-bone try at 11.7x over a 1-bone one at 4.6x, and the guard
     # fired; with five retries a try at 16x and 32x the substeps mends both (2026-12-02, second session). And a frame
     # that ends worse than it started (``_worse``) is retried too: damage that lasts is not retried frame after frame,
-    # but damage that grows is (2026-12-02, fourth session, opt-in with ``replay_frames``; docs/real_motion.md).
+    # but damage that grows is (2026-12-02, fourth session, with ``replay_frames``; docs/real_motion.md).
     RETRY_STRETCH = STRETCH_MAX_TARGET
     RETRY_P99 = STRETCH_P99_TARGET
 
