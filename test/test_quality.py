@@ -278,7 +278,10 @@ def test_evaluate_json_rows_and_summary_on_a_real_clip():
 
 def test_evaluate_reports_cloth_moved_through_the_legs_as_failing_b():
     """After dressing, the trouser legs are swung 60 degrees forward about the crotch, as if on legs raised
-    in front while the legs hang down: both thighs go through the trouser legs' backs."""
+    in front while the legs hang down: both thighs go through the trouser legs' backs. And no replay
+    (``replay_frames``) undoes the move: the garment's motion starts with no frame to replay
+    (``GarmentSolver.start_motion``; before it, the first frame's replay ran from the dressing's last frames and
+    put the legs back: 0 bone frames)."""
     from garment_sim_ros.commands.evaluate import Run, evaluate_run
 
     def swing_forward(character, angle=np.radians(60.0)):
