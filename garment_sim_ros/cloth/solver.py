@@ -326,9 +326,10 @@ class GarmentSolver:
             self.skin = self.binding(x, root_position, root_yaw, frame_positions, frame_rotations)
 
     def start_motion(self, time_s: float) -> None:
-        """The garment, dressed, starts following the motion at ``time_s`` s: the frames run so far (the dressing's,
-        at a still root on another clock) are not the motion's, and none of them is replayed (``_replay``): a
-        replay from there would also undo what was done to the dressed state since (a nudge, a test's move)."""
+        """The garment, put where no frame of it led (dressed, or carried), follows the motion from ``time_s`` s:
+        the frames run before (the dressing's, at a still root on another clock) are not the motion's, and none of
+        them is replayed (``_replay``): a replay from there would also undo what was done to the garment since (a
+        carry, a nudge, a test's move)."""
         self.state.time = time_s
         self.state.lag = 0.0
         self._history.clear()
@@ -359,7 +360,6 @@ class GarmentSolver:
         """``carry``'s garment put at ``positions`` (N, 3) m, its attached points at ``targets``, on the volume
         ``poses`` (root frame), at rest; its report (``carried``, the stretch measured)."""
         x, v = self.state.positions, self.state.velocities
-        self._history.clear()
         self._last_damage = None  # put somewhere: the next frame's start is not the last frame's end
         x[...] = positions
         x[self.model.attached] = targets
@@ -376,8 +376,7 @@ class GarmentSolver:
                                           self._correct_count, self.params.limit_ratio)
             self.collider.handle_all(x.copy(), x, v, inv_mass, 1.0 / 60.0, self.state.contacts)
         v[...] = 0.0
-        self.state.time = time_s
-        self.state.lag = 0.0
+        self.start_motion(time_s)
         report = FrameReport(carried=True)
         self._measure_stretch(report)
         return report
@@ -480,7 +479,7 @@ class GarmentSolver:
         report.static_hits, report.dynamic_hits, report.pressed_depth_m = best[4]
         self._guard(report, last_good, frame)
         self.state.time = frame.t1
-        if report.recovery or not checked or params.replay_frames == 0:
+        if report.recovery or not checked or not replaying:
             self._history.clear()
         else:
             self._history.append((last_good, planned))
