@@ -130,6 +130,11 @@ PARAMETERS: tuple[Param, ...] = (
           "their share, points it would leave deeper in a volume stay; 0: off"),
     Param("strain_limit_tolerance", 0.02, "1", 0.0, 1.0,
           "the strain limiting stops early once no spring is longer than (1 + limit_ratio + this) x rest length"),
+    Param("tear_give_stretch", 1.49, "1", 0.0, 10.0,
+          "a structural or shear spring still longer than this x rest length after the strain limiting (a pinch "
+          "holding its ends on two volumes) is shortened into its ends' contact room: each end moves up to half "
+          "collision_epsilon towards the other, never into a volume; just under issue 11's tearing bound, 1.5 "
+          "(docs/real_motion.md: lower values measured worse); 0: off"),
     Param("strain_limit_slide", 0, "1", 0, 1,
           "opt-in (1): the strain limiting's contact handling puts a point the correction pulled into a volume out "
           "across the nearest surface, so that cloth pulled taut across a limb slides off it, in garments without "
@@ -257,6 +262,7 @@ class SolverParams:
     limit_ratio: float
     strain_limit_iterations: int
     strain_limit_tolerance: float
+    tear_give_stretch: float
     strain_limit_slide: int
     band_gives_way: int
     contact_mobility: float
@@ -333,6 +339,7 @@ PRESETS: dict[str, SolverParams] = {
         correction_iterations=2,
         substep=0.04 / 6,
         strain_limit_iterations=0,  # beyond the memo: its experiments had neither
+        tear_give_stretch=0.0,  # beyond the memo, part of the strain limiting
         frame_retries=0,
         replay_frames=0,  # beyond the memo, like the retries
         tethers=0,

@@ -876,3 +876,48 @@ def test_in_a_pinch_contact_wins_beyond_pinch_depth(pinch_depth):
         assert np.array_equal(x, before) and bone_through_strip(x, end)
     else:
         assert not bone_through_strip(x, end) and depth.max() > 0.005  # the cloth is in the pinch
+
+
+def _give(collider, x, springs, rest, inv_mass=None, stretch=1.5):
+    """``Collider.give_room_to_tears`` on a copy of ``x``; (the points after it, how many ends moved)."""
+    x = np.array(x, dtype=float)
+    inv_mass = np.ones(len(x)) if inv_mass is None else np.asarray(inv_mass, dtype=float)
+    moved = collider.give_room_to_tears(x, inv_mass, np.asarray(springs), np.asarray(rest, dtype=float), len(rest),
+                                        stretch, np.zeros_like(x))
+    return x, moved
+
+
+def test_a_torn_spring_takes_its_ends_contact_room_hand_computed():
+    """Springs 0-1 (rest 20 mm, 32 mm long: 1.6) and 2-3 (rest 20 mm, 40 mm: 2.0), far from the sphere; 4-5
+    within the bound. Half collision_epsilon (1.5 mm) is each end's room: 0-1 needs 1 mm an end and ends at 1.5
+    rest lengths; 2-3 needs 5 mm an end, halved to 1.25 mm (within the room), then on the second pass 3.75 mm
+    halved four times, 0.234375 mm (1.484375 mm from where it was); the third pass's smallest try would take it
+    past the room. 4-5 untouched."""
+    collider = make_collider([sphere()], 6, [0.0, 0.0, 0.0])
+    x = [[1.0, 0, 0], [1.032, 0, 0], [1.0, 0.5, 0], [1.04, 0.5, 0], [1.0, 1.0, 0], [1.025, 1.0, 0]]
+    out, _ = _give(collider, x, [[0, 1], [2, 3], [4, 5]], [0.02, 0.02, 0.02])
+    assert out[1, 0] - out[0, 0] == pytest.approx(0.030, abs=1e-12)
+    assert out[0, 0] - 1.0 == pytest.approx(0.001, abs=1e-12)
+    moves = np.linalg.norm(out - np.array(x), axis=1)
+    assert moves[2] == pytest.approx(0.001484375, abs=1e-12) and moves[3] == pytest.approx(0.001484375, abs=1e-12)
+    assert np.array_equal(out[4:], np.array(x)[4:])
+    assert moves.max() <= 0.5 * DEFAULT_PARAMS.collision_epsilon + 1e-12
+
+
+def test_a_torn_spring_gives_no_point_into_a_volume():
+    """Point 0 on the sphere's surface, its spring to point 1 (3 mm outside, 51 mm away, 1.6 rest lengths) dipping
+    into the sphere: point 0 would go in and stays where it is; point 1 moves its share, within the room, and
+    stays outside. An attached end (inverse mass 0) never moves: its free end takes the whole shortening."""
+    r = 0.1
+    collider = make_collider([sphere(r)], 2, [0.0, 0.0, 0.0])
+    x = np.array([[r, 0.0, 0.0], [0.09, 0.0, 0.05]])
+    length = float(np.linalg.norm(x[1] - x[0]))
+    out, moved = _give(collider, x, [[0, 1]], [length / 1.6])
+    assert np.array_equal(out[0], x[0]) and moved >= 1
+    assert 0.0 < np.linalg.norm(out[1] - x[1]) <= 0.5 * DEFAULT_PARAMS.collision_epsilon + 1e-12
+    assert np.all(collider.penetration_depths(out) == 0.0)
+    assert length / 1.6 * 1.5 < np.linalg.norm(out[1] - out[0]) < length
+
+    free = np.array([[1.0, 0, 0], [1.022, 0, 0]])  # 1.1 rest lengths: the free end alone moves 1 mm
+    out, _ = _give(collider, free, [[0, 1]], [0.02], inv_mass=[0.0, 1.0], stretch=1.05)
+    assert np.array_equal(out[0], free[0]) and out[1, 0] == pytest.approx(1.021, abs=1e-12)

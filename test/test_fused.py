@@ -102,6 +102,20 @@ def test_fused_frame_equals_the_reference_loop_with_motion_constraints_and_paral
     assert_same(reference, result)
 
 
+def test_fused_frame_equals_the_reference_loop_where_torn_springs_take_the_contacts_room(fused_calls):
+    """The cartwheel's short skirt at 60 fps through the right thigh's pinch at 1.27-1.30 s, where one spring held
+    on two volumes is shortened into its ends' contact room (``tear_give_stretch``; test_real_motion.py): the
+    same on both paths, and some frame ends with its longest spring at the give's 1.49."""
+    source = bvh_source(str(CARTWHEEL), loop=False)
+    params = DEFAULT_PARAMS.replace(tear_give_stretch=1.49)
+    times = np.arange(82) / 60.0
+    reference = run(source, "short_skirt", params, times, False)
+    result = run(source, "short_skirt", params, times, True)
+    assert fused_calls
+    assert_same(reference, result)
+    assert max(f[0][6] for f in result) == pytest.approx(1.49, abs=1e-9)
+
+
 def test_fused_frame_reports_its_stages_and_falls_back_without_the_broad_phase():
     source = procedural_source("walk")
     character = make_character(source.rest_pose, source.joint_map, ["short_skirt"], DEFAULT_PARAMS, 1.0)

@@ -252,6 +252,21 @@ def test_undoing_the_strain_limiting_does_not_put_cloth_back_into_the_body():
     assert row["max_depth_mm"] <= 1.0, row["max_depth_mm"]
 
 
+@pytest.mark.parametrize("fps", [60.0, 30.0])
+def test_a_spring_held_on_two_volumes_in_a_pinch_takes_their_contacts_room(fps):
+    """CC cartwheel, short skirt, 1x, to 1.4 s (issue 11 (d)): at 1.27-1.30 s the right thigh, raised 55-68 mm into
+    the torso and the chest, squeezes the skirt's front under the waist, and the contact handling holds both ends of
+    one spring on the two volumes: 1.53 rest lengths at 60 fps, 1.51 at 30 (``tear_give_stretch`` 0), past (d)'s
+    1.5, the whole run's failure at 60 fps. With it (1.49) the spring's ends take their contacts' room
+    (``Collider.give_room_to_tears``): none past 1.49, no point inside a volume, no bone through."""
+    rows = {give: evaluate_run(Run(str(DATA / "cc_cmu_05_06_dance_cartwheel_pirouette.bvh"), "short_skirt", 1.0, fps,
+                                   1.4, params=(("tear_give_stretch", give),))) for give in (0.0, 1.49)}
+    assert rows[0.0]["structural_stretch_max"] > 1.5
+    given = rows[1.49]
+    assert max(given["structural_stretch_max"], given["shear_stretch_max"]) <= 1.49 + 1e-9
+    assert given["max_depth_mm"] == 0.0 and given["bones_frames"] == 0 and given["passed"]
+
+
 def test_the_strain_limiting_slide_is_an_opt_in_for_garments_without_limb_tubes():
     """``strain_limit_slide`` (opt-in): the strain limiting's contact handling puts a point the correction pulled into
     a volume out across the nearest surface (static), in garments without limb tubes; a trouser leg keeps the side

@@ -101,13 +101,13 @@ def advance_substeps(solver, frame, count: int, h: float, v0, a0, yaw_rate: floa
                model.tether_lengths, edges, solver._triangles)
     scratch = (solver._forces, solver._x_start, solver._x_collision, solver._x_kept, solver._v_kept,
                solver._v_scratch, solver._strain_inv_mass, solver._strain_stretches, collider._depths,
-               collider._scratch, collider._corners, collider.axis_boxes(solver._triangles))
+               collider._scratch, collider._corners, collider.axis_boxes(solver._triangles), solver._x_given)
     settings = (float(h), float(yaw_acc), float(params.air_damping), float(params.angular_inertia_scale),
                 int(params.correction_iterations), float(params.limit_ratio),
                 bool(params.tethers), 1.0 + float(params.tether_slack), constrained, float(params.max_distance),
                 int(params.strain_limit_iterations), float(params.contact_mobility),
                 1.0 + params.limit_ratio + params.strain_limit_tolerance, float(solver.STRAIN_LIMIT_UNDONE),
-                solver.limit_slides)
+                solver.limit_slides, float(params.tear_give_stretch))
     contact = (collider._eps, collider._friction, collider._c_time, collider._switch_ratio, collider._mode,
                collider._edge_pinch_depth, collider._grip, collider._margin, collider._pinch_depth)
     pressing = collider.pressing
@@ -302,6 +302,9 @@ def _limit_strain(arrays, xs, x, v, inv_mass, h, contacts, correction, edges, tr
         # the handling threw a point off (see GarmentSolver.STRAIN_LIMIT_UNDONE): not this substep
         collision_kernels.penetration_depths(arrays, x_kept, depths)
         kernels.undo_limiting(x, v, x_kept, v_kept, depths, springs, rest, stretches, bound)
+    if settings[15] > 0.0:  # the contacts' room given to torn springs (``Collider.give_room_to_tears``)
+        collision_kernels.give_room_to_tears(arrays, x, inv_mass, springs, rest, starts[3], settings[15], 0.5 * eps,
+                                             scratch[12])
     ticks[CORRECTION] += toc - tac
     ticks[COLLISION] += (tac - tic) + (_cycles() - toc)
     return n_static + s, n_dynamic

@@ -272,6 +272,27 @@ class Collider:
         return int(crossing.segments_through_triangles(starts, ends, np.ascontiguousarray(x, dtype=np.float64),
                                                        triangles, np.zeros(len(starts), dtype=np.bool_)))
 
+    def give_room_to_tears(self, x, inv_mass, springs, rest, count: int, stretch: float, x_from) -> int:
+        """Springs (S, 2) of ``x`` (N, 3) m, the first ``count``, longer than ``stretch`` x their ``rest`` (S,) m
+        shortened into their ends' contact room, half ``collision_epsilon``, no point into a volume at the
+        substep-end poses (``kernels.give_room_to_tears``; ``x_from`` (N, 3) scratch); x in place. Returns how
+        many ends moved."""
+        n, count = self.n_points, int(count)
+        for name, array in (("x", x), ("x_from", x_from)):
+            if not isinstance(array, np.ndarray) or array.shape != (n, 3) or array.dtype != np.float64 \
+                    or not array.flags.c_contiguous:
+                raise ValueError(f"Collider.give_room_to_tears: {name} must be a C-contiguous float64 array of "
+                                 f"shape ({n}, 3) (modified in place)")
+        springs, rest = np.asarray(springs), np.asarray(rest, dtype=np.float64)
+        used = springs[:count] if springs.ndim == 2 else springs
+        if (springs.ndim != 2 or springs.shape[1] != 2 or not 0 <= count <= min(len(springs), len(rest))
+                or np.shape(inv_mass) != (n,) or (count and not 0 <= used.min() <= used.max() < n)):
+            raise ValueError(f"Collider.give_room_to_tears: need springs (S, 2) of point indices below {n}, rest (S,) "
+                             f"and inv_mass ({n},), count <= S; got {springs.shape}, {rest.shape}, "
+                             f"{np.shape(inv_mass)}, {count}")
+        return int(kernels.give_room_to_tears(self._packed, x, np.asarray(inv_mass, dtype=np.float64), springs, rest,
+                                              count, float(stretch), 0.5 * self._eps, x_from))
+
     def penetration_depths(self, x) -> np.ndarray:
         """(N,) metres inside the deepest volume at the substep-end poses, 0 outside.
 

@@ -478,3 +478,54 @@ def deepest_triangle_centre(arrays, x, triangles):
         deepest = max(deepest, _deepest(vol, (x[a, 0] + x[b, 0] + x[c, 0]) / 3.0, (x[a, 1] + x[b, 1] + x[c, 1]) / 3.0,
                                         (x[a, 2] + x[b, 2] + x[c, 2]) / 3.0))
     return deepest
+
+
+# Tries per end of a tear's give (``give_room_to_tears``): the move halved until the end stays outside every volume
+_GIVE_TRIES = 5
+_GIVE_PASSES = 3  # passes over the springs at most: a point shared by two torn springs gives to both
+
+
+@kernel
+def give_room_to_tears(arrays, x, inv_mass, springs, rest, count, stretch, room, x_from):
+    """The contacts' room given to springs still torn after the strain limiting: each of the first ``count``
+    springs (S, 2) of points ``x`` (N, 3) m longer than ``stretch`` x its ``rest`` (S,) m is shortened to that,
+    its ends moving by their inverse masses along it, each end at most ``room`` m from where it was on entry
+    (``x_from`` (N, 3), scratch) and never deeper into a volume than it was (``_deepest`` at the end poses: a point
+    outside stays outside); a move that would be is halved, up to ``_GIVE_TRIES`` times. Positions only: the room
+    is the contact's (``collision_epsilon``), not motion. Returns how many ends moved.
+
+    Why: where two volumes squeeze cloth (the cartwheel's raised thigh 55-68 mm into the torso, issue 11), the
+    contact handling holds both ends of a spring on the two surfaces and nothing shortens it; the limiting's own
+    contact handling puts its points ``collision_epsilon`` out of their volumes, room that a tearing spring can
+    have without a point going in."""
+    vol = VolumeArrays(*arrays)
+    for i in range(x.shape[0]):
+        for c in range(3):
+            x_from[i, c] = x[i, c]
+    moved = 0
+    for _ in range(_GIVE_PASSES):
+        before = moved
+        for s in range(count):
+            a, b = springs[s, 0], springs[s, 1]
+            dx, dy, dz = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1], x[b, 2] - x[a, 2]
+            length = math.sqrt(dx * dx + dy * dy + dz * dz)
+            wa, wb = inv_mass[a], inv_mass[b]
+            if length <= stretch * rest[s] or wa + wb <= 0.0:
+                continue
+            share = (length - stretch * rest[s]) / (length * (wa + wb))
+            for end, step in ((a, share * wa), (b, -share * wb)):
+                if step == 0.0:
+                    continue
+                depth = _deepest(vol, x[end, 0], x[end, 1], x[end, 2])
+                for _try in range(_GIVE_TRIES):
+                    px, py, pz = x[end, 0] + step * dx, x[end, 1] + step * dy, x[end, 2] + step * dz
+                    far = math.sqrt((px - x_from[end, 0]) ** 2 + (py - x_from[end, 1]) ** 2
+                                    + (pz - x_from[end, 2]) ** 2)
+                    if far <= room and _deepest(vol, px, py, pz) <= depth:
+                        x[end, 0], x[end, 1], x[end, 2] = px, py, pz
+                        moved += 1
+                        break
+                    step *= 0.5
+        if moved == before:  # nothing moved: another pass would find the same (most substeps: no spring torn)
+            break
+    return moved
