@@ -303,7 +303,7 @@ def _limit_strain(arrays, xs, x, v, inv_mass, h, contacts, correction, edges, tr
         collision_kernels.penetration_depths(arrays, x_kept, depths)
         kernels.undo_limiting(x, v, x_kept, v_kept, depths, springs, rest, stretches, bound)
     if settings[15] > 0.0:  # the contacts' room given to torn springs (``Collider.give_room_to_tears``)
-        collision_kernels.give_room_to_tears(arrays, x, inv_mass, springs, rest, starts[3], settings[15], 0.5 * eps,
+        collision_kernels.give_room_to_tears(arrays, x, inv_mass, springs, rest, starts[3], settings[15], eps,
                                              scratch[12])
     ticks[CORRECTION] += toc - tac
     ticks[COLLISION] += (tac - tic) + (_cycles() - toc)

@@ -67,6 +67,7 @@ class Collider:
         self.parallel = bool(parallel)
         self._checked_edges = None  # the last edge array handle_edges validated
         self._checked_triangles = None  # the last triangle array handle_axes validated
+        self._checked_springs = None  # the last spring array give_room_to_tears validated
         self._checked_contacts = None  # the last contact cache validated
         self._corners = np.zeros((3, 3))  # handle_axes' scratch
         self._triangle_boxes = np.zeros((0, 6))  # handle_axes' scratch, sized for the triangles it checked last
@@ -284,14 +285,16 @@ class Collider:
                 raise ValueError(f"Collider.give_room_to_tears: {name} must be a C-contiguous float64 array of "
                                  f"shape ({n}, 3) (modified in place)")
         springs, rest = np.asarray(springs), np.asarray(rest, dtype=np.float64)
-        used = springs[:count] if springs.ndim == 2 else springs
-        if (springs.ndim != 2 or springs.shape[1] != 2 or not 0 <= count <= min(len(springs), len(rest))
-                or np.shape(inv_mass) != (n,) or (count and not 0 <= used.min() <= used.max() < n)):
-            raise ValueError(f"Collider.give_room_to_tears: need springs (S, 2) of point indices below {n}, rest (S,) "
-                             f"and inv_mass ({n},), count <= S; got {springs.shape}, {rest.shape}, "
-                             f"{np.shape(inv_mass)}, {count}")
+        if (springs.ndim != 2 or springs.shape[1] != 2 or rest.ndim != 1
+                or not 0 <= count <= min(len(springs), len(rest)) or np.shape(inv_mass) != (n,)):
+            raise ValueError(f"Collider.give_room_to_tears: need springs (S, 2), rest (S,) and inv_mass ({n},), "
+                             f"count <= S; got {springs.shape}, {rest.shape}, {np.shape(inv_mass)}, {count}")
+        if springs is not self._checked_springs:  # the solver passes the same array every substep: check it once
+            if springs.size and not 0 <= springs.min() <= springs.max() < n:
+                raise ValueError(f"Collider.give_room_to_tears: springs must be point indices below {n}")
+            self._checked_springs = springs
         return int(kernels.give_room_to_tears(self._packed, x, np.asarray(inv_mass, dtype=np.float64), springs, rest,
-                                              count, float(stretch), 0.5 * self._eps, x_from))
+                                              count, float(stretch), self._eps, x_from))
 
     def penetration_depths(self, x) -> np.ndarray:
         """(N,) metres inside the deepest volume at the substep-end poses, 0 outside.

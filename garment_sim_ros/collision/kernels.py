@@ -486,19 +486,21 @@ _GIVE_PASSES = 3  # passes over the springs at most: a point shared by two torn 
 
 
 @kernel
-def give_room_to_tears(arrays, x, inv_mass, springs, rest, count, stretch, room, x_from):
+def give_room_to_tears(arrays, x, inv_mass, springs, rest, count, stretch, eps, x_from):
     """The contacts' room given to springs still torn after the strain limiting: each of the first ``count``
     springs (S, 2) of points ``x`` (N, 3) m longer than ``stretch`` x its ``rest`` (S,) m is shortened to that,
-    its ends moving by their inverse masses along it, each end at most ``room`` m from where it was on entry
-    (``x_from`` (N, 3), scratch) and never deeper into a volume than it was (``_deepest`` at the end poses: a point
-    outside stays outside); a move that would be is halved, up to ``_GIVE_TRIES`` times. Positions only: the room
-    is the contact's (``collision_epsilon``), not motion. Returns how many ends moved.
+    its ends moving by their inverse masses along it, each end at most half the collision epsilon ``eps`` m from
+    where it was on entry (``x_from`` (N, 3), scratch) and never deeper into a volume than it was (``_deepest`` at
+    the end poses: a point outside stays outside); a move that would be is halved, up to ``_GIVE_TRIES`` times.
+    Positions only: the room is the contact's, not motion. Returns how many ends moved.
 
     Why: where two volumes squeeze cloth (the cartwheel's raised thigh 55-68 mm into the torso, issue 11), the
     contact handling holds both ends of a spring on the two surfaces and nothing shortens it; the limiting's own
-    contact handling puts its points ``collision_epsilon`` out of their volumes, room that a tearing spring can
-    have without a point going in."""
+    contact handling puts its points ``eps`` out of their volumes, room that a tearing spring can have without a
+    point going in. Half of it: the other half stays for the next substep's handling (given whole, points put on
+    the surface ended 1.6-1.8 mm deep on the cartwheel; docs/real_motion.md)."""
     vol = VolumeArrays(*arrays)
+    room = 0.5 * eps
     for i in range(x.shape[0]):
         for c in range(3):
             x_from[i, c] = x[i, c]
